@@ -1,0 +1,48 @@
+// One RGB-D frame as every source delivers it and as the frame ring stores it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/image.h"
+#include "core/se3.h"
+
+namespace ef {
+
+struct Frame {
+  Image<Rgb8> color;       // sRGB; may be empty when a source has no colour (.klg with image size 0)
+  Image<float> depth;      // metres along the optical axis, 0 = invalid; same size as color when both exist
+  Image<uint8_t> labels;   // class ids (core/classes.h); empty unless has_labels
+  double timestamp = 0;    // seconds, source clock (TUM: file stamps; 7-Scenes: index / 30)
+  int64_t index = 0;       // 0-based position in the source
+  SE3 T_wc;                // reference camera-to-world pose; meaningful only if has_pose
+  bool has_pose = false;
+  bool has_labels = false;
+  std::string name;        // file stem identifying the frame ("frame-000042", "1305031102.175304");
+                           // sized once: sources keep names short, see kMaxFrameName
+  static constexpr std::size_t kMaxFrameName = 63;
+
+  // Allocates every image at width x height (and reserves the name) so later frames of that size
+  // are written without touching the heap.
+  void allocate(int width, int height, bool with_labels) {
+    color.allocate(width, height);
+    depth.allocate(width, height);
+    if (with_labels) labels.allocate(width, height);
+    name.reserve(kMaxFrameName);
+  }
+};
+
+// Copies `src` into `dst` without allocating when dst was allocated at the same size.
+inline void copy_frame(const Frame& src, Frame& dst) {
+  dst.color = src.color;
+  dst.depth = src.depth;
+  if (src.has_labels) dst.labels = src.labels;
+  dst.timestamp = src.timestamp;
+  dst.index = src.index;
+  dst.T_wc = src.T_wc;
+  dst.has_pose = src.has_pose;
+  dst.has_labels = src.has_labels;
+  dst.name.assign(src.name, 0, Frame::kMaxFrameName);
+}
+
+}  // namespace ef

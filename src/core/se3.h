@@ -1,0 +1,53 @@
+// Rigid transforms in 3D (SE3), in double precision, on Eigen.
+//
+// Naming: T_ab maps points from frame b into frame a (p_a = T_ab * p_b). The camera pose of a frame
+// is T_wc: camera to world, the convention of TUM trajectories. Units: metres and radians.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace ef {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+class SE3 {
+ public:
+  SE3() : q_(Eigen::Quaterniond::Identity()), t_(Eigen::Vector3d::Zero()) {}
+  SE3(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) : q_(q.normalized()), t_(t) {}
+  SE3(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) : q_(Eigen::Quaterniond(R).normalized()), t_(t) {}
+  // From a 4x4 homogeneous matrix; the rotation block is re-orthonormalised through the quaternion.
+  explicit SE3(const Eigen::Matrix4d& m) : SE3(Eigen::Matrix3d(m.topLeftCorner<3, 3>()), Eigen::Vector3d(m.topRightCorner<3, 1>())) {}
+
+  static SE3 identity() { return SE3(); }
+
+  // Exponential map of a twist xi = (v, w): translation part v (metres), rotation part w (axis-angle, radians).
+  static SE3 exp(const Vector6d& xi);
+  // Inverse of exp: the twist (v, w) of this transform.
+  Vector6d log() const;
+
+  const Eigen::Quaterniond& rotation() const { return q_; }
+  Eigen::Matrix3d rotation_matrix() const { return q_.toRotationMatrix(); }
+  const Eigen::Vector3d& translation() const { return t_; }
+  Eigen::Matrix4d matrix() const;
+
+  SE3 inverse() const {
+    const Eigen::Quaterniond qi = q_.conjugate();
+    return SE3(qi, -(qi * t_));
+  }
+  SE3 operator*(const SE3& o) const { return SE3(q_ * o.q_, t_ + q_ * o.t_); }
+  Eigen::Vector3d operator*(const Eigen::Vector3d& p) const { return q_ * p + t_; }
+  Eigen::Vector3f operator*(const Eigen::Vector3f& p) const { return (q_ * p.cast<double>() + t_).cast<float>(); }
+
+  // Rotation angle of this transform, radians in [0, pi].
+  double angle() const;
+
+ private:
+  Eigen::Quaterniond q_;  // unit quaternion
+  Eigen::Vector3d t_;     // metres
+};
+
+// 3x3 skew-symmetric matrix of w: hat(w) * v = w x v.
+Eigen::Matrix3d hat(const Eigen::Vector3d& w);
+
+}  // namespace ef

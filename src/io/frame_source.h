@@ -1,0 +1,55 @@
+// One interface for every frame source: dataset replays, .klg logs, the synthetic rooms and,
+// in later issues, live cameras (platform/).
+#pragma once
+
+#include <cstdint>
+#include <initializer_list>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "core/frame.h"
+#include "core/intrinsics.h"
+#include "core/result.h"
+
+namespace ef {
+
+struct SourceInfo {
+  std::string uri;            // as given by the user
+  Intrinsics intrinsics;      // of the colour/depth images this source delivers (registered RGB-D)
+  int64_t frame_count = -1;   // frames available, -1 when unknown (live cameras)
+  double nominal_fps = 30;    // recording rate, Hz (for --realtime replay)
+  bool has_pose = false;      // frames carry a reference T_wc
+  bool has_labels = false;    // frames carry a class-id image
+  bool has_color = true;      // frames carry colour (a .klg may have none)
+  bool live = false;          // a camera: must never be blocked by processing
+};
+
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+
+  virtual const SourceInfo& info() const = 0;
+
+  // Fills `out` with the next frame. Returns true when a frame was written, false at the end of
+  // the stream, or an error naming the file, the frame and the fault. `out` keeps its buffers:
+  // when they already have the source's size, no image is reallocated.
+  virtual Result<bool> next(Frame& out) = 0;
+};
+
+// A parsed source URI: "scheme:path?key=value&key=value".
+struct SourceUri {
+  std::string scheme;                         // "synthetic", "tum", "7scenes", "klg", ...
+  std::string path;                           // everything between ':' and '?', may be empty
+  std::map<std::string, std::string> query;   // options after '?'
+};
+
+// Parses a URI; an error names what is malformed (no scheme, empty key, duplicated key).
+Result<SourceUri> parse_source_uri(const std::string& uri);
+
+// Rejects any query key of `uri` not in `allowed` with an error naming the key and the scheme.
+Status check_query_keys(const SourceUri& uri, std::initializer_list<const char*> allowed);
+
+// open_source(), which knows every scheme, is in sources/open_source.h.
+
+}  // namespace ef

@@ -1,0 +1,40 @@
+// Helpers shared by the tests: where the shared research data is, and scratch folders.
+#pragma once
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <unistd.h>
+
+namespace ef::test {
+
+// ../shared/data beside the checkout, or $EF_SHARED_DATA. Empty when absent.
+inline std::filesystem::path shared_data_dir() {
+  if (const char* env = std::getenv("EF_SHARED_DATA"); env && *env) return env;
+  std::filesystem::path p = EF_SHARED_DATA_DIR;
+  std::error_code ec;
+  return std::filesystem::is_directory(p, ec) ? p : std::filesystem::path();
+}
+
+// Path of a dataset folder under shared data, empty when absent (call GTEST_SKIP then).
+inline std::filesystem::path shared_dataset(const std::string& name) {
+  const auto root = shared_data_dir();
+  if (root.empty()) return {};
+  std::error_code ec;
+  return std::filesystem::exists(root / name, ec) ? root / name : std::filesystem::path();
+}
+
+// A fresh empty folder for one test's files, under the system temporary directory.
+inline std::filesystem::path scratch_dir(const std::string& test_name) {
+  auto dir = std::filesystem::temp_directory_path() / ("edgefusion-test-" + test_name + "-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace ef::test
+
+#define EF_SKIP_WITHOUT_DATASET(var, name)                                                   \
+  const std::filesystem::path var = ::ef::test::shared_dataset(name);                       \
+  if (var.empty()) GTEST_SKIP() << "shared dataset '" << name << "' not found (looked in "  \
+                                << EF_SHARED_DATA_DIR << " and $EF_SHARED_DATA)"
