@@ -1,12 +1,65 @@
 #include "cli.h"
 
 #include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "commands.h"
+#include "platform/cpu_features.h"
+#include "sources/open_source.h"
 
 namespace ef::app {
 
+namespace {
+
+constexpr const char* kVersion = "0.1.0";
+
+void print_main_help() {
+  std::printf(
+      "edgefusion %s: dense 3D semantic mapping on the CPU (SemanticFusion on surfels)\n\n"
+      "Usage: edgefusion <command> [options]     (edgefusion <command> --help for each)\n\n"
+      "Commands:\n"
+      "  run       map a source: writes trajectory.txt, map.ply (when a map exists) and stats.json\n"
+      "  eval      evaluate a trajectory (ate, rpe) or label images (labels)\n"
+      "  convert   turn any source into an ElasticFusion .klg log or a TUM RGB-D folder\n"
+      "  version   print the version and the CPU paths this machine can use\n\n"
+      "Sources: %s\n",
+      kVersion, source_uri_help_text());
+}
+
+}  // namespace
+
 int run_cli(int argc, char** argv) {
-  std::fprintf(stderr, "edgefusion: not yet implemented\n");
+  if (argc < 2) {
+    print_main_help();
+    return 2;
+  }
+  const std::string cmd = argv[1];
+  if (cmd == "-h" || cmd == "--help" || cmd == "help") {
+    print_main_help();
+    return 0;
+  }
+  if (cmd == "--version" || cmd == "version") {
+    std::printf("edgefusion %s\ncpu paths: %s\n", kVersion, cpu_features().describe().c_str());
+    return 0;
+  }
+  if (cmd == "run") return cmd_run(argc, argv);
+  if (cmd == "eval") return cmd_eval(argc, argv);
+  if (cmd == "convert") return cmd_convert(argc, argv);
+  std::fprintf(stderr, "edgefusion: unknown command '%s' (expected run, eval, convert, version; see --help)\n",
+               cmd.c_str());
   return 2;
+}
+
+}  // namespace ef::app
+
+namespace ef::app {
+
+const char* source_uri_help_text() { return source_uri_help(); }
+
+int report_error(const char* command, const Error& err, int code) {
+  std::fprintf(stderr, "%s: error: %s\n", command, to_string(err).c_str());
+  return code;
 }
 
 }  // namespace ef::app

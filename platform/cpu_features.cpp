@@ -33,15 +33,16 @@ CpuFeatures detect() {
   const unsigned long long xcr0 = osxsave ? xgetbv0() : 0;
   const bool os_avx = (xcr0 & 0x6) == 0x6;            // XMM and YMM state
   const bool os_avx512 = (xcr0 & 0xE6) == 0xE6;       // + opmask, ZMM_Hi256, Hi16_ZMM
+  const unsigned max_leaf = __get_cpuid_max(0, nullptr);
   unsigned b7 = 0, c7 = 0, d7 = 0, a7 = 0;
-  __cpuid_count(7, 0, a7, b7, c7, d7);
+  if (max_leaf >= 7) __cpuid_count(7, 0, a7, b7, c7, d7);  // beyond the maximum leaf CPUID returns junk
   const bool avx2 = (b7 & bit_AVX2) != 0 && (b7 & bit_BMI2) != 0 && fma;
   f.avx2 = os_avx && avx2;
   const bool avx512 = (b7 & bit_AVX512F) && (b7 & bit_AVX512BW) && (b7 & bit_AVX512DQ) && (b7 & bit_AVX512VL);
   const bool vnni512 = (c7 & (1u << 11)) != 0;  // AVX512_VNNI
   f.avx512vnni = f.avx2 && os_avx512 && avx512 && vnni512;
   unsigned a71 = 0, b71 = 0, c71 = 0, d71 = 0;
-  __cpuid_count(7, 1, a71, b71, c71, d71);
+  if (max_leaf >= 7 && a7 >= 1) __cpuid_count(7, 1, a71, b71, c71, d71);  // a7: highest sub-leaf of leaf 7
   f.avxvnni = f.avx2 && (a71 & (1u << 4)) != 0;  // AVX_VNNI
   return f;
 }
@@ -77,19 +78,20 @@ std::string CpuFeatures::describe() const {
 }
 
 bool cap_cpu_features(CpuFeatures& f, const std::string& isa) {
-  // Levels, lowest first; a cap keeps what is at or below the named level.
+  // Levels, lowest first, one chain per architecture; a cap keeps what is at or below the named
+  // level. The other architecture's features are not below it, so they are cleared too.
+  const bool x86 = isa == "sse41" || isa == "avx2" || isa == "avxvnni" || isa == "avx512vnni";
+  const bool arm = isa == "neon" || isa == "neondot";
   if (isa == "scalar") {
     f = CpuFeatures{};
-  } else if (isa == "sse41") {
-    f.avx2 = f.avxvnni = f.avx512vnni = false;
-  } else if (isa == "avx2") {
-    f.avxvnni = f.avx512vnni = false;
-  } else if (isa == "avxvnni") {
-    f.avx512vnni = false;
-  } else if (isa == "avx512vnni") {
-  } else if (isa == "neon") {
-    f.neondot = false;
-  } else if (isa == "neondot") {
+  } else if (x86) {
+    f.neon = f.neondot = false;
+    if (isa == "sse41") f.avx2 = f.avxvnni = f.avx512vnni = false;
+    if (isa == "avx2") f.avxvnni = f.avx512vnni = false;
+    if (isa == "avxvnni") f.avx512vnni = false;
+  } else if (arm) {
+    f.sse41 = f.avx2 = f.avxvnni = f.avx512vnni = false;
+    if (isa == "neon") f.neondot = false;
   } else {
     return false;
   }

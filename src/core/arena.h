@@ -23,6 +23,7 @@ class Arena {
   // Returns nullptr and counts a failure when the arena is exhausted.
   template <class T>
   T* allocate(std::size_t n, std::size_t align = alignof(T)) {
+    if (n > capacity_ / sizeof(T)) { ++failures_; return nullptr; }  // also guards n * sizeof(T) overflow
     return static_cast<T*>(allocate_bytes(n * sizeof(T), align < alignof(T) ? alignof(T) : align));
   }
 

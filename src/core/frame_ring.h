@@ -85,6 +85,10 @@ class FrameRing {
   // Consumer: the oldest ready slot, waiting up to `timeout` for one. nullptr on time-out, or
   // when the ring is closed and drained. The consumer must release() before the next acquire.
   T* acquire_read(std::chrono::microseconds timeout) {
+    // Bound the wait: wait_for adds the timeout to the clock in nanoseconds, which overflows (and
+    // returns at once) for "forever" values such as microseconds::max().
+    constexpr std::chrono::microseconds kMaxWait = std::chrono::hours(24 * 365);
+    if (timeout > kMaxWait) timeout = kMaxWait;
     std::unique_lock<std::mutex> lock(mu_);
     cv_.wait_for(lock, timeout, [&] { return ready_count_ > 0 || closed_; });
     if (ready_count_ == 0) return nullptr;

@@ -11,6 +11,8 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <type_traits>
+#include <utility>
 
 namespace ef {
 
@@ -57,8 +59,17 @@ class Image {
  public:
   Image() = default;
   Image(int width, int height) { allocate(width, height); }
-  Image(Image&&) noexcept = default;
-  Image& operator=(Image&&) noexcept = default;
+  // A moved-from image is empty (0 x 0), not a size without pixels.
+  Image(Image&& o) noexcept
+      : pixels_(std::move(o.pixels_)), width_(std::exchange(o.width_, 0)), height_(std::exchange(o.height_, 0)) {}
+  Image& operator=(Image&& o) noexcept {
+    if (this != &o) {
+      pixels_ = std::move(o.pixels_);
+      width_ = std::exchange(o.width_, 0);
+      height_ = std::exchange(o.height_, 0);
+    }
+    return *this;
+  }
   Image(const Image& o) : Image(o.width_, o.height_) { copy_from(o.view()); }
   Image& operator=(const Image& o) {
     if (this != &o) {
@@ -69,8 +80,9 @@ class Image {
   }
 
   // (Re)allocates to width x height, zero-filled. Does nothing if the size is already right
-  // (the pixels are then left as they are).
+  // (the pixels are then left as they are). A non-positive width or height gives an empty 0 x 0 image.
   void allocate(int width, int height) {
+    if (width <= 0 || height <= 0) width = height = 0;
     if (width == width_ && height == height_ && pixels_) return;
     width_ = width;
     height_ = height;

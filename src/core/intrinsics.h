@@ -24,9 +24,13 @@ struct Intrinsics {
   }
 
   // Level `level` of an image pyramid that halves each level (level 0 = this). Sizes round down.
+  // Each level scales by exactly 1/2 (pixel x of level l+1 covers pixels 2x and 2x+1 of level l),
+  // also for odd sizes, where the last row or column is dropped rather than the image stretched.
   Intrinsics pyramid_level(int level) const {
     Intrinsics k = *this;
-    for (int i = 0; i < level; ++i) k = k.scaled_to(k.width / 2, k.height / 2);
+    for (int i = 0; i < level; ++i)
+      k = Intrinsics{k.fx * 0.5f, k.fy * 0.5f, (k.cx + 0.5f) * 0.5f - 0.5f, (k.cy + 0.5f) * 0.5f - 0.5f, k.width / 2,
+                     k.height / 2};
     return k;
   }
 

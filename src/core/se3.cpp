@@ -67,8 +67,8 @@ Eigen::Matrix4d SE3::matrix() const {
 }
 
 double SE3::angle() const {
-  const double w = std::min(1.0, std::abs(q_.w()));
-  return 2.0 * std::acos(w);
+  // atan2 rather than acos(|w|): acos loses all precision for small angles (|w| rounds to 1).
+  return 2.0 * std::atan2(q_.vec().norm(), std::abs(q_.w()));
 }
 
 }  // namespace ef

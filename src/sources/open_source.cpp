@@ -1,1 +1,28 @@
-// module sources
+#include "sources/open_source.h"
+
+#include "io/klg_format.h"
+#include "io/sevenscenes_source.h"
+#include "io/tum_source.h"
+#include "synth/synthetic_source.h"
+
+namespace ef {
+
+Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri_text) {
+  EF_ASSIGN_OR_RETURN(SourceUri uri, parse_source_uri(uri_text));
+  if (uri.scheme == "synthetic") return open_synthetic(uri);
+  if (uri.scheme == "tum") return open_tum(uri);
+  if (uri.scheme == "7scenes") return open_7scenes(uri);
+  if (uri.scheme == "klg") return open_klg(uri);
+  if (uri.scheme == "openni2" || uri.scheme == "v4l2")
+    return error(ErrorCode::kUnsupported, "source '" + uri_text + "': live cameras (" + uri.scheme +
+                                              ":) are not in this build yet");
+  return error(ErrorCode::kInvalidArgument, "source '" + uri_text + "': unknown scheme '" + uri.scheme +
+                                                "' (expected one of: " + source_uri_help() + ")");
+}
+
+const char* source_uri_help() {
+  return "synthetic:, synthetic:ROOM, synthetic:random?seed=N (query: seed, trajectory=loop|robot, frames, "
+         "size=WxH, noise=0|1), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH]";
+}
+
+}  // namespace ef

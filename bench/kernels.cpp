@@ -1,0 +1,91 @@
+// Times every kernel variant this CPU can run (the same tables the dispatcher and tests use).
+//   bench_kernels [--reps R] [--min-ms T]
+// Per variant: R timed runs, each repeating the kernel until it has taken at least T ms; prints the
+// median time per call and the throughput (depth: GB/s of uint16 input + float output; dot: GOP/s,
+// counting one multiply and one add per element pair). Pin the CPU and close other work first.
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "kernels/depth_u16_to_metres_variants.h"
+#include "kernels/dot_i8_variants.h"
+#include "platform/cpu_features.h"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Median seconds per call of `fn` over `reps` runs of at least `min_ms` each.
+template <class F>
+double median_seconds_per_call(F&& fn, int reps, double min_ms) {
+  std::vector<double> per_call;
+  for (int r = 0; r < reps; ++r) {
+    long calls = 0;
+    const auto t0 = Clock::now();
+    double elapsed_ms = 0;
+    do {
+      fn();
+      ++calls;
+      elapsed_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    } while (elapsed_ms < min_ms);
+    per_call.push_back(elapsed_ms * 1e-3 / static_cast<double>(calls));
+  }
+  std::sort(per_call.begin(), per_call.end());
+  return per_call[per_call.size() / 2];
+}
+
+volatile int32_t g_sink;  // keeps dot results alive
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int reps = 11;
+  double min_ms = 20.0;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--reps")) reps = std::max(1, std::atoi(argv[i + 1]));
+    else if (!std::strcmp(argv[i], "--min-ms")) min_ms = std::atof(argv[i + 1]);
+  }
+  using namespace ef::kernels;
+  const ef::CpuFeatures& cpu = ef::detected_cpu_features();
+  std::printf("CPU features: %s; median of %d runs of >= %.0f ms each\n", cpu.describe().c_str(), reps, min_ms);
+
+  // One 640x480 depth image (TUM scale).
+  const std::size_t pixels = 640 * 480;
+  std::vector<uint16_t> raw(pixels);
+  std::mt19937 rng(1);
+  for (auto& r : raw) r = static_cast<uint16_t>(rng() % 20000);
+  std::vector<float> metres(pixels);
+  std::printf("\ndepth_u16_to_metres, %zu pixels (640x480)\n", pixels);
+  for (const auto& v : kDepthU16ToMetresVariants) {
+    if (!isa_available(v.isa, cpu)) {
+      std::printf("  %-34s skipped (CPU lacks %s)\n", v.name, isa_name(v.isa));
+      continue;
+    }
+    const double s = median_seconds_per_call([&] { v.fn(raw.data(), metres.data(), pixels, 1.0f / 5000.0f, 65535); },
+                                             reps, min_ms);
+    const double bytes = static_cast<double>(pixels) * (sizeof(uint16_t) + sizeof(float));
+    std::printf("  %-34s %9.2f us  %7.2f GB/s\n", v.name, s * 1e6, bytes / s * 1e-9);
+  }
+
+  // A 3x3x256 int8 convolution window (2304) and a long vector that still fits in L2 (64 KiB).
+  for (std::size_t n : {std::size_t{2304}, std::size_t{65536}}) {
+    std::vector<int8_t> a(n), b(n);
+    for (auto& x : a) x = static_cast<int8_t>(rng());
+    for (auto& x : b) x = static_cast<int8_t>(rng());
+    std::printf("\ndot_i8, n = %zu\n", n);
+    for (const auto& v : kDotI8Variants) {
+      if (!isa_available(v.isa, cpu)) {
+        std::printf("  %-34s skipped (CPU lacks %s)\n", v.name, isa_name(v.isa));
+        continue;
+      }
+      const double s = median_seconds_per_call([&] { g_sink = v.fn(a.data(), b.data(), n); }, reps, min_ms);
+      std::printf("  %-34s %9.3f us  %7.2f GOP/s\n", v.name, s * 1e6, 2.0 * static_cast<double>(n) / s * 1e-9);
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,19 @@
+// The commands of `edgefusion`. Each takes the full argv (argv[1] is the command name) and returns
+// the exit code: 0 success, 1 failure while running, 2 usage error.
+#pragma once
+
+#include "core/result.h"
+
+namespace ef::app {
+
+int cmd_run(int argc, char** argv);
+int cmd_eval(int argc, char** argv);
+int cmd_convert(int argc, char** argv);
+
+// The list of source URI forms, for help texts.
+const char* source_uri_help_text();
+
+// Prints "edgefusion <command>: <error>" to stderr and returns `code`.
+int report_error(const char* command, const Error& err, int code);
+
+}  // namespace ef::app

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# THE test command (README): installs the test packages, builds the `release` preset and runs every
+# test (ctest: output on failure, 2 at a time). Exits non-zero on any failure.
+#   EF_JOBS=<n>  parallel compile jobs (default 2)
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+jobs="${EF_JOBS:-2}"
+
+bash scripts/install-deps.sh test
+cmake --preset release
+cmake --build --preset release -j "$jobs"
+ctest --preset release

@@ -1,0 +1,163 @@
+#include "io/stats_json.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+namespace ef {
+
+void JsonWriter::append_escaped(std::string& out, std::string_view s) {
+  out += '"';
+  for (const char ch : s) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\r': out += "\\r"; break;
+      case '\t': out += "\\t"; break;
+      case '\b': out += "\\b"; break;
+      case '\f': out += "\\f"; break;
+      default:
+        if (c < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", c);
+          out += buf;
+        } else {
+          out += ch;
+        }
+    }
+  }
+  out += '"';
+}
+
+void JsonWriter::before_value() {
+  if (after_key_) {
+    after_key_ = false;
+    return;
+  }
+  if (!first_.empty()) {
+    if (!first_.back()) out_ += ',';
+    first_.back() = false;
+  }
+}
+
+void JsonWriter::begin_object() {
+  before_value();
+  out_ += '{';
+  first_.push_back(true);
+}
+
+void JsonWriter::end_object() {
+  out_ += '}';
+  if (!first_.empty()) first_.pop_back();
+}
+
+void JsonWriter::key(std::string_view k) {
+  if (!first_.empty()) {
+    if (!first_.back()) out_ += ',';
+    first_.back() = false;
+  }
+  append_escaped(out_, k);
+  out_ += ':';
+  after_key_ = true;
+}
+
+void JsonWriter::value(double v) {
+  before_value();
+  if (!std::isfinite(v)) {
+    out_ += "null";
+    return;
+  }
+  char buf[32];
+  // The shortest of %.15g / %.16g / %.17g that reads back to the same double.
+  for (int prec = 15; prec <= 17; ++prec) {
+    std::snprintf(buf, sizeof buf, "%.*g", prec, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  out_ += buf;
+}
+
+void JsonWriter::value(int64_t v) {
+  before_value();
+  out_ += std::to_string(v);
+}
+
+void JsonWriter::value(uint64_t v) {
+  before_value();
+  out_ += std::to_string(v);
+}
+
+void JsonWriter::value(std::string_view s) {
+  before_value();
+  append_escaped(out_, s);
+}
+
+void JsonWriter::value_null() {
+  before_value();
+  out_ += "null";
+}
+
+void JsonWriter::value_bool(bool b) {
+  before_value();
+  out_ += b ? "true" : "false";
+}
+
+std::string stats_to_json(const StageStats& stats, uint64_t frames, double seconds,
+                          const std::vector<StatsExtraField>& extra) {
+  JsonWriter w;
+  w.begin_object();
+  w.key("frames");
+  w.value(frames);
+  w.key("seconds");
+  w.value(seconds);
+  w.key("fps");
+  w.value(seconds > 0 ? static_cast<double>(frames) / seconds : 0.0);
+  for (const StatsExtraField& f : extra) {
+    w.key(f.name);
+    w.value(f.value);
+  }
+  w.key("stages");
+  w.begin_object();
+  for (std::size_t i = 0; i < stats.num_stages(); ++i) {
+    const StageSummary s = stats.summary(static_cast<int>(i));
+    w.key(stats.stage_name(static_cast<int>(i)));
+    w.begin_object();
+    w.key("median_ms");
+    w.value(s.median_ms);
+    w.key("p95_ms");
+    w.value(s.p95_ms);
+    w.key("mean_ms");
+    w.value(s.mean_ms);
+    w.key("max_ms");
+    w.value(s.max_ms);
+    w.key("count");
+    w.value(s.count);
+    w.end_object();
+  }
+  w.end_object();
+  w.key("counters");
+  w.begin_object();
+  for (std::size_t i = 0; i < stats.num_counters(); ++i) {
+    w.key(stats.counter_name(static_cast<int>(i)));
+    w.value(stats.counter(static_cast<int>(i)));
+  }
+  w.end_object();
+  w.end_object();
+  return w.str() + "\n";
+}
+
+Status write_stats_json(const std::string& path, const StageStats& stats, uint64_t frames, double seconds,
+                        const std::vector<StatsExtraField>& extra) {
+  const std::string text = stats_to_json(stats, frames, seconds, extra);
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) return error(ErrorCode::kIoError, path + ": cannot create: " + std::strerror(errno));
+  const bool wrote = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  const bool closed = std::fclose(f) == 0;
+  if (!wrote || !closed) return error(ErrorCode::kIoError, path + ": write failed");
+  return Status::success();
+}
+
+}  // namespace ef

@@ -1,0 +1,158 @@
+#include "synth/trajectory.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+#include "synth/rng.h"
+
+namespace ef::synth {
+
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+constexpr double kTwoPi = 6.283185307179586;
+
+// Camera rotation looking along `forward` with world z up, then rolled by `roll` radians about
+// the optical axis. Columns: camera x (right), y (down), z (forward) in world coordinates.
+Eigen::Matrix3d look_along(Vec3 forward, double roll) {
+  forward.normalize();
+  Vec3 right = forward.cross(Vec3::UnitZ()).normalized();
+  Vec3 down = forward.cross(right);
+  const double c = std::cos(roll), s = std::sin(roll);
+  const Vec3 r2 = c * right + s * down, d2 = -s * right + c * down;
+  Eigen::Matrix3d R;
+  R.col(0) = r2;
+  R.col(1) = d2;
+  R.col(2) = forward;
+  return R;
+}
+
+// Smooth periodic path parameters, all drawn from the seed.
+struct Wobble {
+  double phase[10];
+  explicit Wobble(uint32_t seed) {
+    Pcg32 rng(seed, 0x14057b7ef767814fULL);
+    for (double& p : phase) p = kTwoPi * rng.uniform();
+  }
+};
+
+// Pose as a function of the path parameter s (radians around the loop).
+using PathFn = std::function<SE3(double)>;
+
+// Samples `frames` poses at 1/fps s intervals, advancing s so that neither the speed nor the
+// turn rate exceeds its limit (whichever binds sets the pace).
+std::vector<SE3> sample(const PathFn& path, int frames, double fps, double v_max, double w_max) {
+  std::vector<SE3> out;
+  out.reserve(static_cast<std::size_t>(frames));
+  const double ds = kTwoPi / 20000.0;  // fine step of the path parameter
+  double s = 0, t = 0;
+  SE3 prev = path(0);
+  out.push_back(prev);
+  for (int i = 1; i < frames; ++i) {
+    const double target = static_cast<double>(i) / fps;
+    while (true) {
+      const SE3 next = path(s + ds);
+      const double dp = (next.translation() - prev.translation()).norm();
+      const double da = (prev.inverse() * next).angle();
+      const double dt = std::max(dp / v_max, da / w_max);
+      if (t + dt >= target) {
+        // Interpolate within this fine step (linear in s is fine at this resolution).
+        const double f = dt > 0 ? (target - t) / dt : 0;
+        const double s_frame = s + f * ds;
+        out.push_back(path(s_frame));
+        break;
+      }
+      t += dt;
+      s += ds;
+      prev = next;
+    }
+  }
+  return out;
+}
+
+Result<std::vector<SE3>> handheld_loop(const Scene& scene, const TrajectoryOptions& o) {
+  const Wobble w(o.seed);
+  Pcg32 rng(o.seed, 0x3c6ef372fe94f82aULL);
+  const double W = scene.size.x(), D = scene.size.y(), H = scene.size.z();
+  const Vec3 centre(W / 2, D / 2, 0);
+  const double height = std::min(H - 0.5, static_cast<double>(rng.uniform(1.25f, 1.5f)));
+  double a = std::max(0.6, W / 2 - 1.1), b = std::max(0.6, D / 2 - 1.1);
+  const double clockwise = rng.chance(0.5f) ? -1.0 : 1.0;
+  for (int attempt = 0; attempt < 12; ++attempt, a *= 0.9, b *= 0.9) {
+    const PathFn path = [&, a, b](double s) {
+      const double u = clockwise * s;
+      const Vec3 p(centre.x() + a * (1 + 0.08 * std::sin(2 * u + w.phase[0])) * std::cos(u),
+                   centre.y() + b * (1 + 0.08 * std::sin(3 * u + w.phase[1])) * std::sin(u),
+                   height + 0.1 * std::sin(1.7 * u + w.phase[2]) + 0.04 * std::sin(4.3 * u + w.phase[3]));
+      // The gaze point drifts around the middle at a frequency incommensurate with the loop, so a
+      // second lap sees the same places from other directions.
+      const Vec3 target(centre.x() + 0.45 * W / 5 * std::cos(0.63 * u + w.phase[4]),
+                        centre.y() + 0.45 * D / 5 * std::sin(0.71 * u + w.phase[5]),
+                        1.0 + 0.35 * std::sin(1.3 * u + w.phase[6]));
+      const double roll = 0.05 * std::sin(1.1 * u + w.phase[7]) + 0.02 * std::sin(2.9 * u + w.phase[8]);
+      return SE3(look_along(target - p, roll), p);
+    };
+    // Height wobble is not periodic in s (later laps differ), so check the whole band of heights
+    // it can reach (+-0.14 m) at every sample of one lap.
+    bool clear = true;
+    for (int k = 0; k < 720 && clear; ++k) {
+      Eigen::Vector3f p = path(kTwoPi * k / 720.0).translation().cast<float>();
+      for (int j = -2; j <= 2 && clear; ++j) {
+        p.z() = static_cast<float>(height + 0.07 * j);
+        clear = scene.free_space_distance(p) > 0.33f;
+      }
+    }
+    if (!clear) continue;
+    // Pace: one lap over the sequence when that is a realistic hand-held speed, else 0.3 m/s.
+    const double perimeter = 3.3 * (a + b);
+    const double seconds = o.frames / o.fps;
+    const double v = std::clamp(perimeter / std::max(seconds, 1e-3), 0.3, kMaxHandheldSpeed);
+    return sample(path, o.frames, o.fps, v, kMaxHandheldTurn);
+  }
+  return error(ErrorCode::kInternal, "synthetic: no collision-free hand-held loop fits in room '" + scene.name + "'");
+}
+
+Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions& o) {
+  const Wobble w(o.seed ^ 0x9e3779b9U);
+  Pcg32 rng(o.seed, 0x7f4a7c159e3779b9ULL);
+  const double W = scene.size.x(), D = scene.size.y();
+  const double height = rng.uniform(0.3f, 0.6f);
+  const double clockwise = rng.chance(0.5f) ? -1.0 : 1.0;
+  constexpr float kRobotRadius = 0.3f;  // metres of clearance to walls and furniture footprints
+  constexpr float kRobotTop = 0.9f;     // metres: objects entirely above this do not block it
+  // Largest ellipse (shrinking, shifting the centre) that keeps the clearance.
+  for (double scale = 1.0; scale > 0.1; scale -= 0.05) {
+    for (int shift = 0; shift < 25; ++shift) {
+      const Vec3 centre(W / 2 + 0.3 * ((shift % 5) - 2), D / 2 + 0.3 * ((shift / 5) - 2), 0);
+      const double a = scale * (W / 2 - 0.5), b = scale * (D / 2 - 0.5);
+      const auto position = [&, a, b](double u) {
+        return Vec3(centre.x() + a * (1 + 0.1 * std::sin(2 * u + w.phase[0])) * std::cos(u),
+                    centre.y() + b * (1 + 0.1 * std::sin(3 * u + w.phase[1])) * std::sin(u), height);
+      };
+      bool clear = true;
+      for (int k = 0; k < 720 && clear; ++k)
+        clear = scene.floor_clearance(position(kTwoPi * k / 720.0).cast<float>(), kRobotTop) > kRobotRadius;
+      if (!clear) continue;
+      const PathFn path = [&, position](double s) {
+        const double u = clockwise * s;
+        const Vec3 p = position(u);
+        const Vec3 tangent = (position(u + 1e-4) - position(u - 1e-4)) * clockwise;
+        // Look ahead and turned towards the inside of the loop, swaying gently.
+        const double heading = std::atan2(tangent.y(), tangent.x()) + clockwise * 0.45 + 0.25 * std::sin(0.8 * u + w.phase[2]);
+        return SE3(look_along(Vec3(std::cos(heading), std::sin(heading), 0), 0.0), p);
+      };
+      return sample(path, o.frames, o.fps, kRobotSpeed, kRobotTurn);
+    }
+  }
+  return error(ErrorCode::kInternal, "synthetic: no collision-free robot path fits in room '" + scene.name + "'");
+}
+
+}  // namespace
+
+Result<std::vector<SE3>> make_trajectory(const Scene& scene, const TrajectoryOptions& options) {
+  if (options.frames <= 0) return error(ErrorCode::kInvalidArgument, "synthetic: frames must be positive");
+  return options.kind == TrajectoryKind::kLoop ? handheld_loop(scene, options) : robot_path(scene, options);
+}
+
+}  // namespace ef::synth

@@ -1,0 +1,38 @@
+// Camera trajectories through a synthetic room: a hand-held loop and a planar robot path.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/result.h"
+#include "core/se3.h"
+#include "synth/scene.h"
+
+namespace ef::synth {
+
+enum class TrajectoryKind {
+  kLoop,   // hand-held: a smooth loop around the room's middle at 1.2-1.6 m, looking across the room
+           // with gentle height, pitch and roll wobble; long sequences go round again on a
+           // different line of sight (loop closures)
+  kRobot,  // planar: camera 0.3-0.6 m above the floor, level, on a smooth closed path that keeps
+           // 0.3 m from every floor-standing object, looking ahead and slightly inwards
+};
+
+struct TrajectoryOptions {
+  TrajectoryKind kind = TrajectoryKind::kLoop;
+  int frames = 300;        // poses to generate
+  double fps = 30;         // frames per second (poses are i / fps seconds apart)
+  uint32_t seed = 0;       // varies the path's shape, height and wobble
+};
+
+// Limits the trajectories respect (checked by the tests), per second.
+constexpr double kMaxHandheldSpeed = 0.8;   // m/s  (2.7 cm per frame at 30 Hz)
+constexpr double kMaxHandheldTurn = 1.0;    // rad/s (1.9 degrees per frame at 30 Hz)
+constexpr double kRobotSpeed = 0.3;         // m/s
+constexpr double kRobotTurn = 0.6;          // rad/s
+
+// Camera-to-world poses T_wc (camera x right, y down, z forward) for frames 0 .. frames-1.
+// Fails when no collision-free path fits in the room.
+Result<std::vector<SE3>> make_trajectory(const Scene& scene, const TrajectoryOptions& options);
+
+}  // namespace ef::synth
