@@ -126,7 +126,8 @@ bool png_read_stream(std::FILE* fp, PngTarget target, const PngOutputs& outs, ch
       if (color_type == PNG_COLOR_TYPE_GRAY && bit_depth < 8) png_set_expand_gray_1_2_4_to_8(png);
       if (bit_depth == 16) png_set_strip_16(png);
       if (color_type == PNG_COLOR_TYPE_GRAY || color_type == PNG_COLOR_TYPE_GRAY_ALPHA) png_set_gray_to_rgb(png);
-      if (color_type & PNG_COLOR_MASK_ALPHA) png_set_strip_alpha(png);
+      // Palette expansion also turns a tRNS chunk into alpha: strip it in both cases.
+      if ((color_type & PNG_COLOR_MASK_ALPHA) || png_get_valid(png, info, PNG_INFO_tRNS)) png_set_strip_alpha(png);
       pixel_bytes = 3;
       break;
     case PngTarget::kGray16:

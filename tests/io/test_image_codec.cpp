@@ -114,6 +114,21 @@ TEST(ImageCodec, TruncatedJpegFileIsAnError) {
   EXPECT_ERROR_WITH(read_color_image(path, c), ErrorCode::kCorruptData, path, "JPEG");
 }
 
+TEST(ImageCodec, PalettePngWithTransparencyReadsAsRgb) {
+  // 4x3 palette PNG (red, green, blue) with a tRNS chunk, pixel (x, y) = palette[(x + y) mod 3].
+  static const char kPng[] = "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x00\x04\x00\x00\x00\x03\x08\x03\x00\x00\x00\x83\x2a\x5e\xf4\x00\x00\x00\x09\x50\x4c\x54\x45\xff\x00\x00\x00\xff\x00\x00\x00\xff\x2d\x4a\xcd\x8a\x00\x00\x00\x02\x74\x52\x4e\x53\x00\x80\x9b\x2b\x4e\x18\x00\x00\x00\x13\x49\x44\x41\x54\x78\x9c\x63\x60\x60\x64\x62\x00\x61\x46\x06\x20\x66\x02\x00\x00\x5f\x00\x0d\xf3\x4a\x36\x8a\x00\x00\x00\x00\x49\x45\x4e\x44\xae\x42\x60\x82";
+  const auto dir = test::scratch_dir("codec_palette");
+  const std::string path = (dir / "p.png").string();
+  test::write_bytes(path, std::string(kPng, sizeof(kPng) - 1));
+  Image<Rgb8> c;
+  auto s = read_color_image(path, c);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_EQ(c.width(), 4);
+  EXPECT_EQ(c(0, 0), (Rgb8{255, 0, 0}));
+  EXPECT_EQ(c(1, 0), (Rgb8{0, 255, 0}));
+  EXPECT_EQ(c(1, 1), (Rgb8{0, 0, 255}));
+}
+
 TEST(ImageCodec, ReadsDatasetFormats) {
   EF_SKIP_WITHOUT_DATASET(dir, "single-frames");
   Image<Rgb8> c;

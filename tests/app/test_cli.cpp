@@ -1,0 +1,190 @@
+// End-to-end tests of the `edgefusion` command line, run in-process through run_cli().
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "firmware_app/cli.h"
+#include "eval/trajectory_eval.h"
+#include "io/trajectory_io.h"
+#include "test_support.h"
+
+namespace ef::app {
+namespace {
+
+struct CliResult {
+  int code;
+  std::string out;
+  std::string err;
+};
+
+CliResult cli(std::vector<std::string> args) {
+  args.insert(args.begin(), "edgefusion");
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int code = run_cli(static_cast<int>(args.size()), argv.data());
+  CliResult r{code, testing::internal::GetCapturedStdout(), testing::internal::GetCapturedStderr()};
+  return r;
+}
+
+std::string read_file(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Value of "key value" in eval output.
+double metric(const std::string& out, const std::string& key) {
+  std::istringstream in(out);
+  std::string k;
+  double v;
+  while (in >> k >> v)
+    if (k == key) return v;
+  return NAN;
+}
+
+TEST(Cli, HelpEverywhere) {
+  for (std::vector<std::string> a : {std::vector<std::string>{"--help"}, {"run", "--help"}, {"eval", "--help"},
+                                     {"eval", "ate", "--help"}, {"eval", "rpe", "--help"},
+                                     {"eval", "labels", "--help"}, {"convert", "--help"}}) {
+    const auto r = cli(a);
+    EXPECT_EQ(r.code, 0) << a[0];
+    EXPECT_NE(r.out.find("Usage"), std::string::npos) << a[0];
+  }
+}
+
+TEST(Cli, UnknownOptionsAndBadValuesNameTheOption) {
+  auto r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--fast"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--fast"), std::string::npos) << r.err;
+
+  r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--resolution", "320by240"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--resolution"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("320by240"), std::string::npos) << r.err;
+
+  r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--frames", "ten"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--frames"), std::string::npos) << r.err;
+
+  r = cli({"run", "--source", "synthetic:"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--out"), std::string::npos) << r.err;
+
+  r = cli({"eval", "rpe", "a.txt", "b.txt"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--delta-frames"), std::string::npos) << r.err;
+
+  r = cli({"convert", "--source", "synthetic:", "--to", "ply:/tmp/x"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--to"), std::string::npos) << r.err;
+
+  r = cli({"frobnicate"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("frobnicate"), std::string::npos) << r.err;
+}
+
+TEST(Cli, UnknownSourceSchemeAndRoomAreNamed) {
+  const auto dir = test::scratch_dir("cli-scheme");
+  auto r = cli({"run", "--source", "kinect:0", "--out", dir.string()});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("kinect"), std::string::npos) << r.err;
+  r = cli({"run", "--source", "synthetic:spaceship", "--out", dir.string()});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("spaceship"), std::string::npos) << r.err;
+}
+
+TEST(Cli, ConfigFileErrorsNameFileLineAndKey) {
+  const auto dir = test::scratch_dir("cli-config");
+  const auto cfg = dir / "run.yaml";
+  std::ofstream(cfg) << "# test\nsource: synthetic:\nresolution: 320x240\nframez: 3\n";
+  auto r = cli({"run", "--config", cfg.string(), "--out", dir.string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("framez"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("line 4"), std::string::npos) << r.err;
+
+  std::ofstream(cfg) << "resolution: big\n";
+  r = cli({"run", "--config", cfg.string(), "--out", dir.string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("resolution"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("big"), std::string::npos) << r.err;
+}
+
+TEST(Cli, RunSyntheticWritesTrajectoryAndStats) {
+  const auto dir = test::scratch_dir("cli-run");
+  const auto cfg = dir / "run.yaml";
+  std::ofstream(cfg) << "source: synthetic:?frames=6\nresolution: 160x120\n";
+  const auto r = cli({"run", "--config", cfg.string(), "--frames", "4", "--out", (dir / "out").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find((dir / "out" / "trajectory.txt").string()), std::string::npos) << r.out;
+
+  auto traj = read_tum_trajectory((dir / "out" / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok()) << to_string(traj.error());
+  EXPECT_EQ(traj->poses.size(), 4u);  // --frames overrides nothing in the file and caps the source's 6
+
+  const std::string stats = read_file(dir / "out" / "stats.json");
+  EXPECT_NE(stats.find("\"frames\":4"), std::string::npos) << stats;
+  EXPECT_NE(stats.find("\"width\":160"), std::string::npos) << stats;
+  for (const char* key : {"\"seconds\"", "\"fps\"", "\"stages\"", "\"median_ms\"", "\"p95_ms\"", "\"counters\""})
+    EXPECT_NE(stats.find(key), std::string::npos) << key << " missing in " << stats;
+}
+
+TEST(Cli, SevenScenesReferenceTrajectoryHasZeroAteAgainstItsPoseFiles) {
+  EF_SKIP_WITHOUT_DATASET(data, "7scenes-redkitchen");
+  const auto dir = test::scratch_dir("cli-7scenes");
+  const auto r = cli({"run", "--source", "7scenes:" + data.string(), "--frames", "30", "--out", dir.string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+
+  // Ground truth built independently from the pose files: frame i at i/30 s.
+  std::vector<TimedPose> gt;
+  for (int i = 0; i < 30; ++i) {
+    char name[64];
+    std::snprintf(name, sizeof name, "frame-%06d.pose.txt", i);
+    std::ifstream in(data / name);
+    Eigen::Matrix4d m;
+    for (int k = 0; k < 16; ++k) in >> m(k / 4, k % 4);
+    ASSERT_TRUE(in) << name;
+    gt.push_back({i / 30.0, SE3(m)});
+  }
+  ASSERT_TRUE(write_tum_trajectory((dir / "gt.txt").string(), gt).ok());
+
+  const auto e = cli({"eval", "ate", (dir / "gt.txt").string(), (dir / "trajectory.txt").string()});
+  ASSERT_EQ(e.code, 0) << e.err;
+  EXPECT_EQ(metric(e.out, "pairs"), 30);
+  EXPECT_LT(metric(e.out, "ate_rmse_m"), 1e-6) << e.out;
+}
+
+TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
+  const auto dir = test::scratch_dir("cli-convert");
+  auto r = cli({"convert", "--source", "synthetic:office?frames=3&size=160x120", "--to", "tum:" + (dir / "tum").string(),
+                "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* f : {"rgb.txt", "depth.txt", "groundtruth.txt"}) EXPECT_TRUE(std::filesystem::exists(dir / "tum" / f)) << f;
+  EXPECT_TRUE(std::filesystem::is_directory(dir / "tum" / "labels"));
+
+  // The TUM folder is a source again, with the same poses.
+  r = cli({"run", "--source", "tum:" + (dir / "tum").string(), "--resolution", "160x120", "--out", (dir / "run").string(),
+           "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto ate = evaluate_ate_files((dir / "tum" / "groundtruth.txt").string(), (dir / "run" / "trajectory.txt").string());
+  ASSERT_TRUE(ate.ok()) << to_string(ate.error());
+  EXPECT_EQ(ate->pairs, 3);
+  EXPECT_LT(ate->rmse_m, 1e-6);
+
+  r = cli({"convert", "--source", "tum:" + (dir / "tum").string(), "--to", "klg:" + (dir / "seq.klg").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = cli({"run", "--source", "klg:" + (dir / "seq.klg").string() + "?size=160x120", "--resolution", "160x120", "--out",
+           (dir / "klgrun").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(read_file(dir / "klgrun" / "stats.json").find("\"frames\":3"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ef::app
