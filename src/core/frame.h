@@ -32,17 +32,23 @@ struct Frame {
   }
 };
 
+// Copies everything but the images (timestamp, index, pose, name). has_labels is left to the caller,
+// which knows whether it copied a label image.
+inline void copy_frame_metadata(const Frame& src, Frame& dst) {
+  dst.timestamp = src.timestamp;
+  dst.index = src.index;
+  dst.T_wc = src.T_wc;
+  dst.has_pose = src.has_pose;
+  dst.name.assign(src.name, 0, Frame::kMaxFrameName);
+}
+
 // Copies `src` into `dst` without allocating when dst was allocated at the same size.
 inline void copy_frame(const Frame& src, Frame& dst) {
   dst.color = src.color;
   dst.depth = src.depth;
   if (src.has_labels) dst.labels = src.labels;
-  dst.timestamp = src.timestamp;
-  dst.index = src.index;
-  dst.T_wc = src.T_wc;
-  dst.has_pose = src.has_pose;
   dst.has_labels = src.has_labels;
-  dst.name.assign(src.name, 0, Frame::kMaxFrameName);
+  copy_frame_metadata(src, dst);
 }
 
 }  // namespace ef

@@ -74,11 +74,7 @@ void resample_frame(const Frame& src, Frame& out) {
   if (!src.depth.empty()) resample_depth(src.depth, out.depth);
   if (src.has_labels && !src.labels.empty() && !out.labels.empty()) resample_labels(src.labels, out.labels);
   out.has_labels = src.has_labels && !out.labels.empty();
-  out.timestamp = src.timestamp;
-  out.index = src.index;
-  out.T_wc = src.T_wc;
-  out.has_pose = src.has_pose;
-  out.name.assign(src.name, 0, Frame::kMaxFrameName);
+  copy_frame_metadata(src, out);
 }
 
 }  // namespace ef
