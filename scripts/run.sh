@@ -5,8 +5,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh base
-cmake --preset release -DEF_BUILD_TESTS=OFF >/dev/null
-cmake --build --preset release --target edgefusion
+# Its own build folder: the program only, so the test packages are not needed.
+cmake -S . -B build/app -G Ninja -DCMAKE_BUILD_TYPE=Release -DEF_BUILD_TESTS=OFF -DEF_BUILD_BENCH=OFF >/dev/null
+cmake --build build/app --target edgefusion
 out="${EF_OUT:-out/run}"
 if [ $# -eq 0 ]; then set -- --source synthetic:; fi
-exec build/release/firmware_app/edgefusion run "$@" --out "$out"
+exec build/app/firmware_app/edgefusion run "$@" --out "$out"

@@ -7,6 +7,6 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 jobs="${EF_JOBS:-2}"
 
 bash scripts/install-deps.sh test
-cmake --preset release
+cmake --preset release -DEF_BUILD_TESTS=ON
 cmake --build --preset release -j "$jobs"
 ctest --preset release

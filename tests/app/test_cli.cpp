@@ -178,6 +178,14 @@ TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
   EXPECT_EQ(ate->pairs, 3);
   EXPECT_LT(ate->rmse_m, 1e-6);
 
+  // The exported labels evaluated against themselves: every evaluated pixel is right.
+  r = cli({"eval", "labels", (dir / "tum" / "labels").string(), (dir / "tum" / "labels").string(), "--depth",
+           (dir / "tum" / "depth").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(metric(r.out, "class_avg"), 1.0) << r.out;
+  EXPECT_EQ(metric(r.out, "images"), 3) << r.out;
+  EXPECT_GT(metric(r.out, "pixels"), 3 * 160 * 120 / 2) << r.out;
+
   r = cli({"convert", "--source", "tum:" + (dir / "tum").string(), "--to", "klg:" + (dir / "seq.klg").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   r = cli({"run", "--source", "klg:" + (dir / "seq.klg").string() + "?size=160x120", "--resolution", "160x120", "--out",
