@@ -40,13 +40,16 @@ std::string read_file(const std::filesystem::path& p) {
   return ss.str();
 }
 
-// Value of "key value" in eval output.
+// Value of a "key value" line in eval output; NaN when there is none.
 double metric(const std::string& out, const std::string& key) {
   std::istringstream in(out);
-  std::string k;
-  double v;
-  while (in >> k >> v)
-    if (k == key) return v;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::string k, rest;
+    double v;
+    if (fields >> k >> v && !(fields >> rest) && k == key) return v;
+  }
   return NAN;
 }
 
