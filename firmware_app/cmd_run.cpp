@@ -120,9 +120,9 @@ int cmd_run(int argc, char** argv) {
   while (config.max_frames < 0 || frames < config.max_frames) {
     ScopedStageTimer t_source(stats, st_source);
     auto got = source.next(input);
+    if (!got.ok() || !*got) t_source.cancel();  // only delivered frames count in the stage's timing
     if (!got.ok()) {
       // Keep what was already accepted: the trajectory and the statistics so far are written below.
-      std::fprintf(stderr, "\n");
       report_error(kCmd, got.error(), 1);
       exit_code = 1;
       break;

@@ -197,5 +197,22 @@ TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
   EXPECT_NE(read_file(dir / "klgrun" / "stats.json").find("\"frames\":3"), std::string::npos);
 }
 
+// A source that fails mid-run: the frames already processed keep their outputs.
+TEST(Cli, SourceErrorMidRunKeepsTheOutputsSoFar) {
+  const auto dir = test::scratch_dir("cli-midrun");
+  auto r = cli({"convert", "--source", "synthetic:bedroom?frames=5&size=160x120", "--to", "tum:" + (dir / "tum").string(),
+                "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::filesystem::remove(dir / "tum" / "depth" / "000003.png");
+  r = cli({"run", "--source", "tum:" + (dir / "tum").string(), "--resolution", "160x120", "--out", (dir / "run").string(),
+           "--quiet"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("000003"), std::string::npos) << r.err;
+  auto traj = read_tum_trajectory((dir / "run" / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok()) << to_string(traj.error());
+  EXPECT_EQ(traj->poses.size(), 3u);
+  EXPECT_NE(read_file(dir / "run" / "stats.json").find("\"frames\":3"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace ef::app
