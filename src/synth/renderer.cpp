@@ -37,9 +37,33 @@ void primitive_uv(const Primitive& p, const Eigen::Vector3f& q, const Eigen::Vec
 }
 
 inline uint8_t to_srgb8(float linear) {
-  // Gamma 2 (sqrt) instead of the exact sRGB curve: exactly rounded on every machine.
-  const float c = std::min(std::max(linear, 0.0f), 1.0f);
+  // Gamma 2 (sqrt) instead of the exact sRGB curve: exactly rounded on every machine. NaN -> 0
+  // (converting NaN to an integer is undefined, and x86-64 and ARM64 give different values).
+  const float c = linear > 0.0f ? std::min(linear, 1.0f) : 0.0f;
   return static_cast<uint8_t>(std::sqrt(c) * 255.0f + 0.5f);
+}
+
+// Tile index range [lo, hi] as integers. The float bounds can be far outside the image (up to
+// +-1e9 for primitives crossing the near plane): clamp before converting, since a float to int16
+// conversion out of range is undefined (x86-64 wraps, ARM64 saturates). An empty range (lo > hi)
+// culls the primitive.
+inline int16_t tile_bound(float t, int tiles) {
+  return static_cast<int16_t>(std::min(std::max(t, -1.0f), static_cast<float>(tiles)));
+}
+
+// Rotation matrix of the unit quaternion q, written out here (not Eigen's toRotationMatrix) so that
+// its operations are compiled with this file's flags (no fused multiply-add) on every ISA.
+Eigen::Matrix3f rotation_of(const Eigen::Quaterniond& q) {
+  const double x = q.x(), y = q.y(), z = q.z(), w = q.w();
+  const double tx = 2 * x, ty = 2 * y, tz = 2 * z;
+  const double twx = tx * w, twy = ty * w, twz = tz * w;
+  const double txx = tx * x, txy = ty * x, txz = tz * x;
+  const double tyy = ty * y, tyz = tz * y, tzz = tz * z;
+  Eigen::Matrix3d R;
+  R << 1 - (tyy + tzz), txy - twz, txz + twy,
+       txy + twz, 1 - (txx + tzz), tyz - twx,
+       txz - twy, tyz + twx, 1 - (txx + tyy);
+  return R.cast<float>();
 }
 
 }  // namespace
@@ -98,10 +122,10 @@ void Renderer::bin_primitives(const Eigen::Matrix3f& R_cw, const Eigen::Vector3f
     }
     const float tx0 = std::floor((u0 - 1.0f) / kTile), tx1 = std::floor((u1 + 1.0f) / kTile);
     const float ty0 = std::floor((v0 - 1.0f) / kTile), ty1 = std::floor((v1 + 1.0f) / kTile);
-    r[0] = static_cast<int16_t>(std::max(tx0, 0.0f));
-    r[1] = static_cast<int16_t>(std::max(ty0, 0.0f));
-    r[2] = static_cast<int16_t>(std::min(tx1, static_cast<float>(tiles_x_ - 1)));
-    r[3] = static_cast<int16_t>(std::min(ty1, static_cast<float>(tiles_y_ - 1)));
+    r[0] = std::max<int16_t>(tile_bound(tx0, tiles_x_), 0);
+    r[1] = std::max<int16_t>(tile_bound(ty0, tiles_y_), 0);
+    r[2] = std::min<int16_t>(tile_bound(tx1, tiles_x_), static_cast<int16_t>(tiles_x_ - 1));
+    r[3] = std::min<int16_t>(tile_bound(ty1, tiles_y_), static_cast<int16_t>(tiles_y_ - 1));
   }
   for (std::size_t i = 0; i < n; ++i) order_[i] = static_cast<uint16_t>(i);
   std::sort(order_.begin(), order_.end(), [this](uint16_t a, uint16_t b) {
@@ -133,7 +157,7 @@ Eigen::Vector3f Renderer::shade(const Material& m, float u, float v, float hu, f
 }
 
 void Renderer::render(const SE3& T_wc, ImageView<Rgb8> color, ImageView<float> depth, ImageView<uint8_t> labels) {
-  const Eigen::Matrix3f R_wc = T_wc.rotation_matrix().cast<float>();
+  const Eigen::Matrix3f R_wc = rotation_of(T_wc.rotation());
   const Eigen::Vector3f t_wc = T_wc.translation().cast<float>();
   const Eigen::Matrix3f R_cw = R_wc.transpose();
   bin_primitives(R_cw, t_wc);

@@ -3,7 +3,10 @@
 // Everything random in src/synth comes from here, never from <random> distributions (whose
 // output is implementation-defined), so a seed gives the same rooms, frames and noise with any
 // standard library, on x86 and ARM64. Only integer arithmetic and exactly rounded float
-// operations (+ - * /) are used.
+// operations (+ - * /) are used. Anything that could be contracted into a fused multiply-add
+// (a * b + c) is defined out of line in rng.cpp, which is compiled with -ffp-contract=off: code
+// including this header (tests) may be compiled with contraction, and an inline copy could then
+// round differently on ARM64.
 #pragma once
 
 #include <cstdint>
@@ -47,8 +50,8 @@ class Pcg32 {
 
   // Uniform in [0, 1), 24-bit resolution.
   float uniform() { return hash_unit(next_u32()); }
-  // Uniform in [lo, hi).
-  float uniform(float lo, float hi) { return lo + (hi - lo) * uniform(); }
+  // Uniform in [lo, hi) (rng.cpp).
+  float uniform(float lo, float hi);
   // Uniform integer in [0, n), n > 0 (the tiny modulo bias is irrelevant here).
   uint32_t below(uint32_t n) { return next_u32() % n; }
   // True with probability p.

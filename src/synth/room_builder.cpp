@@ -3,8 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Geometry>
-
+#include "synth/det_math.h"
 #include "synth/rng.h"
 
 namespace ef::synth {
@@ -14,6 +13,13 @@ namespace {
 using Vec2 = Eigen::Vector2f;
 using Vec3 = Eigen::Vector3f;
 constexpr float kPi = 3.14159265f;
+
+// v rotated by `yaw` radians in the floor plane (det_math: the same bits on every machine).
+Vec2 rotate(float yaw, const Vec2& v) {
+  float s, c;
+  det_sincosf(yaw, s, c);
+  return Vec2(c * v.x() - s * v.y(), s * v.x() + c * v.y());
+}
 
 // Where a piece of furniture stands: its footprint centre on the floor (world metres) and its yaw
 // (radians). Its own frame: x along its width, y towards its front, z up from the floor.
@@ -55,10 +61,13 @@ class Builder {
     m.seed = next_seed();
     return m;
   }
+  // Random draws are always separate statements: the order in which the arguments of one call
+  // are evaluated is unspecified, and GCC picks different orders on x86-64 and ARM64.
   Vec3 vary(const Vec3& c, float amount) {
-    return Vec3(c.x() * rng_.uniform(1 - amount, 1 + amount), c.y() * rng_.uniform(1 - amount, 1 + amount),
-                c.z() * rng_.uniform(1 - amount, 1 + amount))
-        .cwiseMin(1.0f);
+    const float fr = rng_.uniform(1 - amount, 1 + amount);
+    const float fg = rng_.uniform(1 - amount, 1 + amount);
+    const float fb = rng_.uniform(1 - amount, 1 + amount);
+    return Vec3(c.x() * fr, c.y() * fg, c.z() * fb).cwiseMin(1.0f);
   }
   Material wood() {
     static const Vec3 kWoods[4] = {{0.55f, 0.36f, 0.2f}, {0.75f, 0.6f, 0.42f}, {0.35f, 0.2f, 0.12f}, {0.85f, 0.75f, 0.6f}};
@@ -77,7 +86,9 @@ class Builder {
   }
   Material stripes() {
     const Vec3 b = fabric().base;
-    return mat(TextureKind::kStripes, b, vary(Vec3(0.9f, 0.88f, 0.8f), 0.1f), rng_.uniform(0.08f, 0.2f));
+    const Vec3 accent = vary(Vec3(0.9f, 0.88f, 0.8f), 0.1f);
+    const float scale = rng_.uniform(0.08f, 0.2f);
+    return mat(TextureKind::kStripes, b, accent, scale);
   }
   Material metal() { return mat(TextureKind::kPlain, vary(Vec3(0.3f, 0.3f, 0.32f), 0.2f), Vec3::Zero(), 0.1f); }
   Material bright() {
@@ -91,17 +102,22 @@ class Builder {
     const Vec3 wall_col = vary(Vec3(0.82f, 0.8f, 0.74f), 0.12f);
     const bool paper = rng_.chance(0.4f);
     for (int f = kWallYMin; f <= kWallXMin; ++f) {
-      s_.face_material[f] = paper && f == kWallYMax
-                                ? mat(TextureKind::kWallpaper, wall_col, vary(Vec3(0.55f, 0.45f, 0.4f), 0.2f), rng_.uniform(0.15f, 0.3f))
-                                : mat(TextureKind::kPlaster, wall_col, Vec3::Zero(), rng_.uniform(0.15f, 0.4f));
+      if (paper && f == kWallYMax) {
+        const Vec3 accent = vary(Vec3(0.55f, 0.45f, 0.4f), 0.2f);
+        const float scale = rng_.uniform(0.15f, 0.3f);
+        s_.face_material[f] = mat(TextureKind::kWallpaper, wall_col, accent, scale);
+      } else {
+        s_.face_material[f] = mat(TextureKind::kPlaster, wall_col, Vec3::Zero(), rng_.uniform(0.15f, 0.4f));
+      }
     }
     s_.face_material[kCeilingFace] = mat(TextureKind::kPlaster, Vec3(0.9f, 0.9f, 0.9f), Vec3::Zero(), 0.5f);
     if (rng_.chance(0.6f)) {
       const Material w = wood();
       s_.face_material[kFloorFace] = mat(TextureKind::kPlanks, w.base, w.accent, rng_.uniform(0.12f, 0.22f));
     } else {
-      s_.face_material[kFloorFace] = mat(TextureKind::kTiles, vary(Vec3(0.7f, 0.68f, 0.62f), 0.2f), Vec3(0.3f, 0.3f, 0.3f),
-                                         rng_.uniform(0.3f, 0.6f));
+      const Vec3 base = vary(Vec3(0.7f, 0.68f, 0.62f), 0.2f);
+      const float scale = rng_.uniform(0.3f, 0.6f);
+      s_.face_material[kFloorFace] = mat(TextureKind::kTiles, base, Vec3(0.3f, 0.3f, 0.3f), scale);
     }
     // Two ceiling lights along the longer axis, warm to cool, and an ambient term.
     const Vec3 tint = rng_.chance(0.5f) ? Vec3(1.0f, 0.92f, 0.8f) : Vec3(0.92f, 0.95f, 1.0f);
@@ -132,8 +148,11 @@ class Builder {
 
   // World AABB of a local box (centre c, half extents h) of a placement.
   static Aabb bounds(const Placement& pl, const Vec3& c, const Vec3& h) {
-    const float cs = std::fabs(std::cos(pl.yaw)), sn = std::fabs(std::sin(pl.yaw));
-    const Vec2 w = pl.origin + Eigen::Rotation2Df(pl.yaw) * Vec2(c.x(), c.y());
+    float sn, cs;
+    det_sincosf(pl.yaw, sn, cs);
+    cs = std::fabs(cs);
+    sn = std::fabs(sn);
+    const Vec2 w = pl.origin + rotate(pl.yaw, Vec2(c.x(), c.y()));
     const Vec3 e(cs * h.x() + sn * h.y(), sn * h.x() + cs * h.y(), h.z());
     return Aabb{Vec3(w.x(), w.y(), c.z()) - e, Vec3(w.x(), w.y(), c.z()) + e};
   }
@@ -176,7 +195,7 @@ class Builder {
             float extra_yaw = 0) {
     Primitive p;
     p.shape = shape;
-    const Vec2 w = pl.origin + Eigen::Rotation2Df(pl.yaw) * Vec2(c.x(), c.y());
+    const Vec2 w = pl.origin + rotate(pl.yaw, Vec2(c.x(), c.y()));
     p.center = Vec3(w.x(), w.y(), c.z());
     p.half = h;
     p.yaw = pl.yaw + extra_yaw;
@@ -297,14 +316,18 @@ class Builder {
   // Small objects scattered on a top surface at height z (local rectangle centred at c, half size hs).
   void clutter(const Placement& pl, Vec2 c, Vec2 hs, float z, int count) {
     for (int i = 0; i < count; ++i) {
-      const float x = c.x() + rng_.uniform(-hs.x(), hs.x()), y = c.y() + rng_.uniform(-hs.y(), hs.y());
+      const float x = c.x() + rng_.uniform(-hs.x(), hs.x());
+      const float y = c.y() + rng_.uniform(-hs.y(), hs.y());
       switch (rng_.below(5)) {
         case 0:  // cup
           part(pl, Vec3(x, y, z + 0.05f), Vec3(0.04f, 0.04f, 0.05f), kObjects, bright(), Shape::kCylinder);
           break;
-        case 1:  // box
-          part(pl, Vec3(x, y, z + 0.05f), Vec3(0.1f, 0.07f, 0.05f), kObjects, painted(), Shape::kBox, rng_.uniform(-1, 1));
+        case 1: {  // box
+          const Material m = painted();
+          const float yaw = rng_.uniform(-1, 1);
+          part(pl, Vec3(x, y, z + 0.05f), Vec3(0.1f, 0.07f, 0.05f), kObjects, m, Shape::kBox, yaw);
           break;
+        }
         case 2:  // ball / fruit
           part(pl, Vec3(x, y, z + 0.06f), Vec3::Constant(0.06f), kObjects, bright(), Shape::kSphere);
           break;
@@ -367,14 +390,17 @@ class Builder {
 
 void living_room(Builder& b) {
   Pcg32& r = b.rng();
-  b.shell(Vec3(r.uniform(5.0f, 6.5f), r.uniform(4.2f, 5.5f), r.uniform(2.5f, 2.9f)));
+  const float width = r.uniform(5.0f, 6.5f);
+  const float depth = r.uniform(4.2f, 5.5f);
+  const float height = r.uniform(2.5f, 2.9f);
+  b.shell(Vec3(width, depth, height));
   const int back = static_cast<int>(r.below(2)) * 2;  // sofa on wall 0 or 2
   Placement pl;
   const float sw = r.uniform(1.9f, 2.4f);
   if (b.find_wall_spot(back, sw, 0.9f, 0, 1.0f, 0.02f, pl)) {
     b.sofa(pl, sw);
     Placement front = pl;
-    front.origin += Eigen::Rotation2Df(pl.yaw) * Vec2(0, 0.45f + 0.3f + 0.35f);
+    front.origin += rotate(pl.yaw, Vec2(0, 0.45f + 0.3f + 0.35f));
     if (b.is_free(front, Vec3(0, 0, 0.25f), Vec3(0.55f, 0.3f, 0.25f))) {
       b.rug(front, 2.0f, 1.4f);
       b.table(front, 1.1f, 0.6f, 0.45f);
@@ -382,7 +408,11 @@ void living_room(Builder& b) {
       b.reserve(front, Vec3(0, 0, 0.25f), Vec3(0.55f, 0.3f, 0.25f));
     }
   }
-  b.painting(back, r.uniform(0.8f, 1.3f), r.uniform(0.5f, 0.8f), 1.6f);
+  {
+    const float w = r.uniform(0.8f, 1.3f);
+    const float h = r.uniform(0.5f, 0.8f);
+    b.painting(back, w, h, 1.6f);
+  }
   const int opposite = (back + 2) % 4;
   if (b.find_wall_spot(opposite, 1.6f, 0.45f, 0, 1.4f, 0.02f, pl)) {
     b.cabinet(pl, 1.6f, 0.45f, 0.5f);
@@ -393,14 +423,25 @@ void living_room(Builder& b) {
   if (b.find_any_wall_spot(3, 0.85f, 0.85f, 0, 1.0f, 0.1f, pl)) b.armchair(pl);
   if (b.find_any_wall_spot(1, 0.4f, 0.4f, 0, 1.9f, 0.1f, pl)) b.lamp(pl, 0, 1.55f);
   if (b.find_any_wall_spot(3, 0.6f, 0.6f, 0, 1.0f, 0.05f, pl)) b.plant(pl);
-  b.window(3, r.uniform(1.0f, 1.6f), r.uniform(1.1f, 1.4f));
-  b.window(1, r.uniform(0.9f, 1.3f), r.uniform(1.1f, 1.4f));
+  {
+    const float w = r.uniform(1.0f, 1.6f);
+    const float h = r.uniform(1.1f, 1.4f);
+    b.window(3, w, h);
+  }
+  {
+    const float w = r.uniform(0.9f, 1.3f);
+    const float h = r.uniform(1.1f, 1.4f);
+    b.window(1, w, h);
+  }
   b.painting(1, 0.6f, 0.45f, 1.5f);
 }
 
 void bedroom(Builder& b) {
   Pcg32& r = b.rng();
-  b.shell(Vec3(r.uniform(4.2f, 5.5f), r.uniform(4.5f, 5.5f), r.uniform(2.4f, 2.7f)));
+  const float width = r.uniform(4.2f, 5.5f);
+  const float depth = r.uniform(4.5f, 5.5f);
+  const float height = r.uniform(2.4f, 2.7f);
+  b.shell(Vec3(width, depth, height));
   const int head = static_cast<int>(r.below(4));
   const float bw = r.uniform(1.4f, 1.8f);
   Placement pl;
@@ -408,7 +449,7 @@ void bedroom(Builder& b) {
     b.bed(pl, bw, 2.0f);
     for (int side = -1; side <= 1; side += 2) {
       Placement ns = pl;
-      ns.origin += Eigen::Rotation2Df(pl.yaw) * Vec2(side * (bw / 2 + 0.3f), -1.0f + 0.22f);
+      ns.origin += rotate(pl.yaw, Vec2(side * (bw / 2 + 0.3f), -1.0f + 0.22f));
       if (b.is_free(ns, Vec3(0, 0, 0.3f), Vec3(0.24f, 0.22f, 0.3f))) {
         b.cabinet(ns, 0.45f, 0.4f, 0.55f);
         if (side < 0) b.lamp(ns, 0.55f, 0.3f); else b.clutter(ns, Vec2(0, 0), Vec2(0.1f, 0.08f), 0.55f, 2);
@@ -422,7 +463,7 @@ void bedroom(Builder& b) {
     b.table(pl, 1.1f, 0.55f, 0.75f);
     b.clutter(pl, Vec2(0, 0), Vec2(0.4f, 0.15f), 0.75f, 2);
     Placement ch = pl;
-    ch.origin += Eigen::Rotation2Df(pl.yaw) * Vec2(0.1f, 0.55f);
+    ch.origin += rotate(pl.yaw, Vec2(0.1f, 0.55f));
     ch.yaw += kPi + 0.3f;
     if (b.is_free(ch, Vec3(0, 0, 0.5f), Vec3(0.25f, 0.25f, 0.5f))) {
       b.chair(ch);
@@ -439,7 +480,10 @@ void bedroom(Builder& b) {
 
 void office(Builder& b) {
   Pcg32& r = b.rng();
-  b.shell(Vec3(r.uniform(4.0f, 5.5f), r.uniform(3.8f, 5.0f), r.uniform(2.5f, 3.0f)));
+  const float width = r.uniform(4.0f, 5.5f);
+  const float depth = r.uniform(3.8f, 5.0f);
+  const float height = r.uniform(2.5f, 3.0f);
+  b.shell(Vec3(width, depth, height));
   Placement pl;
   for (int i = 0; i < 2; ++i) {
     const float w = r.uniform(1.3f, 1.7f);
@@ -450,7 +494,7 @@ void office(Builder& b) {
     b.part(kb, Vec3(0, 0.2f, 0.755f), Vec3(0.22f, 0.07f, 0.015f), kObjects, b.painted());
     b.clutter(pl, Vec2(w / 2 - 0.2f, 0), Vec2(0.1f, 0.2f), 0.74f, 2);
     Placement ch = pl;
-    ch.origin += Eigen::Rotation2Df(pl.yaw) * Vec2(r.uniform(-0.2f, 0.2f), 0.7f);
+    ch.origin += rotate(pl.yaw, Vec2(r.uniform(-0.2f, 0.2f), 0.7f));
     ch.yaw += kPi + r.uniform(-0.4f, 0.4f);
     if (b.is_free(ch, Vec3(0, 0, 0.5f), Vec3(0.25f, 0.25f, 0.5f))) {
       b.chair(ch);
@@ -471,7 +515,10 @@ void office(Builder& b) {
 
 void kitchen(Builder& b) {
   Pcg32& r = b.rng();
-  b.shell(Vec3(r.uniform(4.5f, 6.0f), r.uniform(3.8f, 4.8f), r.uniform(2.4f, 2.8f)));
+  const float width = r.uniform(4.5f, 6.0f);
+  const float depth = r.uniform(3.8f, 4.8f);
+  const float height = r.uniform(2.4f, 2.8f);
+  b.shell(Vec3(width, depth, height));
   Placement pl;
   // A run of counters (furniture) with clutter, and wall cabinets above.
   const float run = std::min(b.W() - 0.4f, r.uniform(2.4f, 3.2f));
@@ -481,7 +528,7 @@ void kitchen(Builder& b) {
            b.mat(TextureKind::kTiles, Vec3(0.8f, 0.8f, 0.78f), Vec3(0.4f, 0.4f, 0.4f), 0.1f));
     b.clutter(pl, Vec2(0, 0.05f), Vec2(run / 2 - 0.2f, 0.15f), 0.94f, 5);
     Placement upper = pl;
-    upper.origin += Eigen::Rotation2Df(pl.yaw) * Vec2(0, -0.12f);
+    upper.origin += rotate(pl.yaw, Vec2(0, -0.12f));
     Material m = b.painted();
     b.part(upper, Vec3(0, 0, 1.85f), Vec3(run / 2, 0.18f, 0.35f), kFurniture, m);
   }
@@ -489,14 +536,14 @@ void kitchen(Builder& b) {
   const float tw = r.uniform(1.2f, 1.6f);
   if (b.find_wall_spot(2, tw + 1.0f, 1.6f, 0, 1.0f, 0.2f, pl)) {
     Placement t = pl;
-    t.origin += Eigen::Rotation2Df(pl.yaw) * Vec2(0, 0.2f);
+    t.origin += rotate(pl.yaw, Vec2(0, 0.2f));
     b.table(t, tw, 0.85f, 0.75f);
     b.clutter(t, Vec2(0, 0), Vec2(tw / 2 - 0.15f, 0.25f), 0.75f, 4);
     for (int i = 0; i < 4; ++i) {
       Placement c = t;
       const Vec2 off = i < 2 ? Vec2((i == 0 ? -1 : 1) * tw * 0.25f, -0.6f) : Vec2((i == 2 ? -1 : 1) * (tw / 2 + 0.35f), 0.0f);
       const float yaw = i < 2 ? 0.0f : (i == 2 ? -kPi / 2 : kPi / 2);
-      c.origin += Eigen::Rotation2Df(t.yaw) * off;
+      c.origin += rotate(t.yaw, off);
       c.yaw += yaw + r.uniform(-0.2f, 0.2f);
       b.chair(c);
     }
@@ -514,7 +561,10 @@ void kitchen(Builder& b) {
 
 void library(Builder& b) {
   Pcg32& r = b.rng();
-  b.shell(Vec3(r.uniform(5.0f, 6.5f), r.uniform(4.5f, 5.5f), r.uniform(2.7f, 3.0f)));
+  const float width = r.uniform(5.0f, 6.5f);
+  const float depth = r.uniform(4.5f, 5.5f);
+  const float height = r.uniform(2.7f, 3.0f);
+  b.shell(Vec3(width, depth, height));
   Placement pl;
   for (int wall = 0; wall < 4; ++wall) {
     const int n = wall % 2 == 0 ? 3 : 2;
@@ -526,7 +576,7 @@ void library(Builder& b) {
     b.table(pl, 1.4f, 0.7f, 0.75f);
     b.clutter(pl, Vec2(0, 0), Vec2(0.5f, 0.2f), 0.75f, 3);
     Placement ch = pl;
-    ch.origin += Eigen::Rotation2Df(pl.yaw) * Vec2(0, 0.65f);
+    ch.origin += rotate(pl.yaw, Vec2(0, 0.65f));
     ch.yaw += kPi;
     b.chair(ch);
   }

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "synth/det_math.h"
+
 namespace ef::synth {
 
 namespace {
@@ -39,6 +41,15 @@ bool slab(float o, float d, float h, float& t0, float& t1) {
 }
 
 }  // namespace
+
+Eigen::Vector3f Primitive::to_local(const Eigen::Vector3f& p) const {
+  const float dx = p.x() - center.x(), dy = p.y() - center.y();
+  return Eigen::Vector3f(cos_yaw * dx + sin_yaw * dy, -sin_yaw * dx + cos_yaw * dy, p.z() - center.z());
+}
+
+Eigen::Vector3f Primitive::dir_to_world(const Eigen::Vector3f& d) const {
+  return Eigen::Vector3f(cos_yaw * d.x() - sin_yaw * d.y(), sin_yaw * d.x() + cos_yaw * d.y(), d.z());
+}
 
 float Primitive::local_signed_distance(const Eigen::Vector3f& q) const {
   switch (shape) {
@@ -122,8 +133,7 @@ bool intersect_local(const Primitive& p, const Eigen::Vector3f& o, const Eigen::
 }
 
 int Scene::add(Primitive p) {
-  p.cos_yaw = std::cos(p.yaw);
-  p.sin_yaw = std::sin(p.yaw);
+  det_sincosf(p.yaw, p.sin_yaw, p.cos_yaw);
   primitives.push_back(p);
   return static_cast<int>(primitives.size()) - 1;
 }

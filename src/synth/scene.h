@@ -54,15 +54,11 @@ struct Primitive {
   uint8_t label = kUnknown;  // class id, core/classes.h
   Material material;
 
-  // World point into the primitive's own frame (centred, unrotated).
-  Eigen::Vector3f to_local(const Eigen::Vector3f& p) const {
-    const float dx = p.x() - center.x(), dy = p.y() - center.y();
-    return Eigen::Vector3f(cos_yaw * dx + sin_yaw * dy, -sin_yaw * dx + cos_yaw * dy, p.z() - center.z());
-  }
+  // World point into the primitive's own frame (centred, unrotated). Out of line (scene.cpp, no
+  // fused multiply-add) so that every caller gets the same bits on every ISA.
+  Eigen::Vector3f to_local(const Eigen::Vector3f& p) const;
   // Direction from the primitive's frame into the world frame.
-  Eigen::Vector3f dir_to_world(const Eigen::Vector3f& d) const {
-    return Eigen::Vector3f(cos_yaw * d.x() - sin_yaw * d.y(), sin_yaw * d.x() + cos_yaw * d.y(), d.z());
-  }
+  Eigen::Vector3f dir_to_world(const Eigen::Vector3f& d) const;
   // Signed distance from a point in the primitive's frame to its surface (negative inside), metres.
   float local_signed_distance(const Eigen::Vector3f& q) const;
 };
@@ -92,7 +88,8 @@ struct Scene {
   std::vector<Light> lights;
   Eigen::Vector3f ambient{0.25f, 0.25f, 0.25f};  // linear ambient light
 
-  // Adds a primitive, caching its yaw's sine and cosine; returns its index.
+  // Adds a primitive, caching its yaw's sine and cosine (det_math.h: the same bits on every
+  // machine); returns its index.
   int add(Primitive p);
 
   // Unsigned distance from a world point to the nearest surface (room faces or object), metres.

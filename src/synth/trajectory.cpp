@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 
+#include "synth/det_math.h"
 #include "synth/rng.h"
 
 namespace ef::synth {
@@ -13,13 +14,68 @@ namespace {
 using Vec3 = Eigen::Vector3d;
 constexpr double kTwoPi = 6.283185307179586;
 
+// Trigonometry comes from det_math.h, never libm: the poses must have the same bits on every
+// machine (libm's last bit differs between glibc on x86-64 and on ARM64, and the sampler's
+// decisions below would amplify one bit into a different frame).
+
+// Unit quaternion of a rotation matrix (Shepperd's method: the largest of w, x, y, z first),
+// written out here rather than taken from Eigen so that its operations are those of this file.
+Eigen::Quaterniond to_quaternion(const Eigen::Matrix3d& R) {
+  const double m00 = R(0, 0), m11 = R(1, 1), m22 = R(2, 2);
+  const double trace = (m00 + m11) + m22;
+  double w, x, y, z;
+  if (trace >= m00 && trace >= m11 && trace >= m22) {
+    const double r = std::sqrt(1.0 + trace);
+    const double f = 0.5 / r;
+    w = 0.5 * r;
+    x = (R(2, 1) - R(1, 2)) * f;
+    y = (R(0, 2) - R(2, 0)) * f;
+    z = (R(1, 0) - R(0, 1)) * f;
+  } else if (m00 >= m11 && m00 >= m22) {
+    const double r = std::sqrt(((1.0 + m00) - m11) - m22);
+    const double f = 0.5 / r;
+    x = 0.5 * r;
+    w = (R(2, 1) - R(1, 2)) * f;
+    y = (R(0, 1) + R(1, 0)) * f;
+    z = (R(0, 2) + R(2, 0)) * f;
+  } else if (m11 >= m22) {
+    const double r = std::sqrt(((1.0 + m11) - m00) - m22);
+    const double f = 0.5 / r;
+    y = 0.5 * r;
+    w = (R(0, 2) - R(2, 0)) * f;
+    x = (R(0, 1) + R(1, 0)) * f;
+    z = (R(1, 2) + R(2, 1)) * f;
+  } else {
+    const double r = std::sqrt(((1.0 + m22) - m00) - m11);
+    const double f = 0.5 / r;
+    z = 0.5 * r;
+    w = (R(1, 0) - R(0, 1)) * f;
+    x = (R(0, 2) + R(2, 0)) * f;
+    y = (R(1, 2) + R(2, 1)) * f;
+  }
+  if (w < 0) {  // one sign convention: w >= 0
+    w = -w; x = -x; y = -y; z = -z;
+  }
+  const double n = std::sqrt(((w * w + x * x) + y * y) + z * z);
+  return Eigen::Quaterniond(w / n, x / n, y / n, z / n);
+}
+
+SE3 make_pose(const Eigen::Matrix3d& R, const Vec3& t) { return SE3(to_quaternion(R), t); }
+
+// Rotation angle of a unit quaternion, radians in [0, pi] (as SE3::angle, with det_atan2).
+double rotation_angle(const Eigen::Quaterniond& q) {
+  const double v = std::sqrt((q.x() * q.x() + q.y() * q.y()) + q.z() * q.z());
+  return 2.0 * det_atan2(v, std::fabs(q.w()));
+}
+
 // Camera rotation looking along `forward` with world z up, then rolled by `roll` radians about
 // the optical axis. Columns: camera x (right), y (down), z (forward) in world coordinates.
 Eigen::Matrix3d look_along(Vec3 forward, double roll) {
   forward.normalize();
   Vec3 right = forward.cross(Vec3::UnitZ()).normalized();
   Vec3 down = forward.cross(right);
-  const double c = std::cos(roll), s = std::sin(roll);
+  double s, c;
+  det_sincos(roll, s, c);
   const Vec3 r2 = c * right + s * down, d2 = -s * right + c * down;
   Eigen::Matrix3d R;
   R.col(0) = r2;
@@ -54,7 +110,7 @@ std::vector<SE3> sample(const PathFn& path, int frames, double fps, double v_max
     while (true) {
       const SE3 next = path(s + ds);
       const double dp = (next.translation() - prev.translation()).norm();
-      const double da = (prev.inverse() * next).angle();
+      const double da = rotation_angle(prev.inverse().rotation() * next.rotation());
       const double dt = std::max(dp / v_max, da / w_max);
       if (t + dt >= target) {
         // Interpolate within this fine step (linear in s is fine at this resolution).
@@ -82,16 +138,16 @@ Result<std::vector<SE3>> handheld_loop(const Scene& scene, const TrajectoryOptio
   for (int attempt = 0; attempt < 12; ++attempt, a *= 0.9, b *= 0.9) {
     const PathFn path = [&, a, b](double s) {
       const double u = clockwise * s;
-      const Vec3 p(centre.x() + a * (1 + 0.08 * std::sin(2 * u + w.phase[0])) * std::cos(u),
-                   centre.y() + b * (1 + 0.08 * std::sin(3 * u + w.phase[1])) * std::sin(u),
-                   height + 0.1 * std::sin(1.7 * u + w.phase[2]) + 0.04 * std::sin(4.3 * u + w.phase[3]));
+      const Vec3 p(centre.x() + a * (1 + 0.08 * det_sin(2 * u + w.phase[0])) * det_cos(u),
+                   centre.y() + b * (1 + 0.08 * det_sin(3 * u + w.phase[1])) * det_sin(u),
+                   height + 0.1 * det_sin(1.7 * u + w.phase[2]) + 0.04 * det_sin(4.3 * u + w.phase[3]));
       // The gaze point drifts around the middle at a frequency incommensurate with the loop, so a
       // second lap sees the same places from other directions.
-      const Vec3 target(centre.x() + 0.45 * W / 5 * std::cos(0.63 * u + w.phase[4]),
-                        centre.y() + 0.45 * D / 5 * std::sin(0.71 * u + w.phase[5]),
-                        1.0 + 0.35 * std::sin(1.3 * u + w.phase[6]));
-      const double roll = 0.05 * std::sin(1.1 * u + w.phase[7]) + 0.02 * std::sin(2.9 * u + w.phase[8]);
-      return SE3(look_along(target - p, roll), p);
+      const Vec3 target(centre.x() + 0.45 * W / 5 * det_cos(0.63 * u + w.phase[4]),
+                        centre.y() + 0.45 * D / 5 * det_sin(0.71 * u + w.phase[5]),
+                        1.0 + 0.35 * det_sin(1.3 * u + w.phase[6]));
+      const double roll = 0.05 * det_sin(1.1 * u + w.phase[7]) + 0.02 * det_sin(2.9 * u + w.phase[8]);
+      return make_pose(look_along(target - p, roll), p);
     };
     // Height wobble is not periodic in s (later laps differ), so check the whole band of heights
     // it can reach (+-0.14 m) at every sample of one lap.
@@ -127,8 +183,8 @@ Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions&
       const Vec3 centre(W / 2 + 0.3 * ((shift % 5) - 2), D / 2 + 0.3 * ((shift / 5) - 2), 0);
       const double a = scale * (W / 2 - 0.5), b = scale * (D / 2 - 0.5);
       const auto position = [&, a, b](double u) {
-        return Vec3(centre.x() + a * (1 + 0.1 * std::sin(2 * u + w.phase[0])) * std::cos(u),
-                    centre.y() + b * (1 + 0.1 * std::sin(3 * u + w.phase[1])) * std::sin(u), height);
+        return Vec3(centre.x() + a * (1 + 0.1 * det_sin(2 * u + w.phase[0])) * det_cos(u),
+                    centre.y() + b * (1 + 0.1 * det_sin(3 * u + w.phase[1])) * det_sin(u), height);
       };
       bool clear = true;
       for (int k = 0; k < 720 && clear; ++k)
@@ -139,8 +195,10 @@ Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions&
         const Vec3 p = position(u);
         const Vec3 tangent = (position(u + 1e-4) - position(u - 1e-4)) * clockwise;
         // Look ahead and turned towards the inside of the loop, swaying gently.
-        const double heading = std::atan2(tangent.y(), tangent.x()) + clockwise * 0.45 + 0.25 * std::sin(0.8 * u + w.phase[2]);
-        return SE3(look_along(Vec3(std::cos(heading), std::sin(heading), 0), 0.0), p);
+        const double heading = det_atan2(tangent.y(), tangent.x()) + clockwise * 0.45 + 0.25 * det_sin(0.8 * u + w.phase[2]);
+        double sh, ch;
+        det_sincos(heading, sh, ch);
+        return make_pose(look_along(Vec3(ch, sh, 0), 0.0), p);
       };
       return sample(path, o.frames, o.fps, kRobotSpeed, kRobotTurn);
     }
