@@ -2,7 +2,8 @@
 //   bench_kernels [--reps R] [--min-ms T]
 // Per variant: R timed runs, each repeating the kernel until it has taken at least T ms; prints the
 // median time per call and the throughput (depth: GB/s of uint16 input + float output; dot: GOP/s,
-// counting one multiply and one add per element pair). Pin the CPU and close other work first.
+// counting one multiply and one add per element pair; normal equations: million rows/s of
+// 8-float Gauss-Newton rows). Pin the CPU and close other work first.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -14,6 +15,7 @@
 
 #include "kernels/depth_u16_to_metres_variants.h"
 #include "kernels/dot_i8_variants.h"
+#include "kernels/reduce_normal_equations_variants.h"
 #include "platform/cpu_features.h"
 
 namespace {
@@ -40,6 +42,7 @@ double median_seconds_per_call(F&& fn, int reps, double min_ms) {
 }
 
 volatile int32_t g_sink;  // keeps dot results alive
+volatile double g_sink_f;  // keeps normal-equation results alive
 
 }  // namespace
 
@@ -85,6 +88,24 @@ int main(int argc, char** argv) {
       }
       const double s = median_seconds_per_call([&] { g_sink = v.fn(a.data(), b.data(), n); }, reps, min_ms);
       std::printf("  %-34s %9.3f us  %7.2f GOP/s\n", v.name, s * 1e6, 2.0 * static_cast<double>(n) / s * 1e-9);
+    }
+  }
+  // Gauss-Newton rows (J, r, w) of one 320x240 frame, and of the coarsest pyramid level (80x60).
+  for (std::size_t n : {std::size_t{76800}, std::size_t{4800}}) {
+    std::vector<float> rows(8 * n);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    for (auto& x : rows) x = u(rng);
+    for (std::size_t i = 0; i < n; ++i) rows[7 * n + i] = 0.5f * (u(rng) + 1.0f);
+    std::printf("\nreduce_normal_equations, n = %zu rows\n", n);
+    for (const auto& v : kReduceNormalEquationsVariants) {
+      if (!isa_available(v.isa, cpu)) {
+        std::printf("  %-34s skipped (CPU lacks %s)\n", v.name, isa_name(v.isa));
+        continue;
+      }
+      NormalEquations ne;
+      const double s = median_seconds_per_call([&] { v.fn(rows.data(), n, n, &ne); g_sink_f = ne.upper[0]; }, reps,
+                                               min_ms);
+      std::printf("  %-34s %9.2f us  %7.1f Mrows/s\n", v.name, s * 1e6, static_cast<double>(n) / s * 1e-6);
     }
   }
   return 0;

@@ -1,0 +1,369 @@
+// Preprocessing of a working-resolution RGB-D frame; see preprocess.h for the conventions.
+#include "slam/preprocess.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace ef::slam {
+
+namespace {
+
+constexpr int kMaxLevels = 6;
+constexpr int kMinCoarsestSize = 8;  // pixels, both dimensions
+constexpr float kPi = 3.14159265358979f;
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point& t) {
+  const Clock::time_point now = Clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(now - t).count();
+  t = now;
+  return ms;
+}
+
+// exp(-t) for t >= 0 approximated by (1 + t/8)^-8 (u = 1 + t/8 is passed in): at most 0.03 away
+// from exp(-t), positive, and below 1e-10 for the t of a 0.5 m step at sigma 3 cm (t ~ 139). No
+// comparison and no branch, so the bilateral loop vectorises (GCC, under its default
+// -ftrapping-math, does not if-convert conditional float arithmetic); huge u overflow to a weight of
+// exactly 0, which is how invalid neighbours drop out (see kInvalidDepthSentinel).
+inline float inverse_eighth_power(float u) {
+  const float u2 = u * u;
+  const float u4 = u2 * u2;
+  return 1.0f / (u4 * u4);
+}
+
+// Invalid depths are stored as this (metres) in the bilateral filter's padded input: its difference
+// to any real depth gives a range weight of exactly 0 (u^8 overflows to infinity).
+constexpr float kInvalidDepthSentinel = 1.0e6f;
+
+inline int clamp_index(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); }
+
+}  // namespace
+
+Status PreprocessOptions::validate() const {
+  auto bad = [](const char* what) { return error(ErrorCode::kInvalidArgument, std::string("preprocess options: ") + what); };
+  if (levels < 1 || levels > kMaxLevels) return bad("levels must be 1..6");
+  if (!(depth_cutoff_m > 0)) return bad("depth_cutoff_m must be > 0");
+  if (bilateral_radius_px < 0 || bilateral_radius_px > 8) return bad("bilateral_radius_px must be 0..8");
+  if (!(bilateral_sigma_space_px > 0)) return bad("bilateral_sigma_space_px must be > 0");
+  // At most 1 m, so that the invalid-depth sentinel still gets a range weight of exactly 0.
+  if (!(bilateral_sigma_depth_m > 0 && bilateral_sigma_depth_m <= 1)) return bad("bilateral_sigma_depth_m must be in (0, 1]");
+  if (!(pyramid_depth_threshold_m > 0)) return bad("pyramid_depth_threshold_m must be > 0");
+  if (!(normal_min_grazing_deg > 0 && normal_min_grazing_deg < 90)) return bad("normal_min_grazing_deg must be in (0, 90)");
+  return Status::success();
+}
+
+std::string PreprocessOptions::describe() const {
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "levels %d\ndepth_cutoff_m %g m\nbilateral_radius_px %d px\nbilateral_sigma_space_px %g px\n"
+                "bilateral_sigma_depth_m %g m\npyramid_depth_threshold_m %g m\nnormal_min_grazing_deg %g deg\n",
+                levels, depth_cutoff_m, bilateral_radius_px, bilateral_sigma_space_px, bilateral_sigma_depth_m,
+                pyramid_depth_threshold_m, normal_min_grazing_deg);
+  return buf;
+}
+
+Result<Preprocessor> Preprocessor::create(const Intrinsics& working, const PreprocessOptions& options) {
+  EF_RETURN_IF_ERROR(options.validate());
+  if (!working.valid()) return error(ErrorCode::kInvalidArgument, "preprocess: invalid working intrinsics");
+  const Intrinsics coarsest = working.pyramid_level(options.levels - 1);
+  if (coarsest.width < kMinCoarsestSize || coarsest.height < kMinCoarsestSize)
+    return error(ErrorCode::kInvalidArgument,
+                 "preprocess: " + std::to_string(working.width) + "x" + std::to_string(working.height) + " is too small for " +
+                     std::to_string(options.levels) + " pyramid levels (coarsest must be at least 8x8)");
+  Preprocessor p;
+  p.options_ = options;
+  for (int l = 0; l < options.levels; ++l) {
+    PyramidLevel& lv = p.levels_[l];
+    lv.intrinsics = working.pyramid_level(l);
+    const int w = lv.intrinsics.width, h = lv.intrinsics.height;
+    lv.depth.allocate(w, h);
+    lv.vertex.allocate(w, h);
+    lv.normal.allocate(w, h);
+    lv.intensity.allocate(w, h);
+    lv.grad_x.allocate(w, h);
+    lv.grad_y.allocate(w, h);
+  }
+  const int r = options.bilateral_radius_px;
+  p.raw_depth_.allocate(working.width, working.height);
+  p.padded_.allocate(working.width + 2 * r, working.height + 2 * r);
+  p.padded_.fill(kInvalidDepthSentinel);  // the border stays invalid; process() writes the interior
+  p.spatial_weights_.allocate(2 * r + 1, 2 * r + 1);
+  const float inv_2ss = 1.0f / (2.0f * options.bilateral_sigma_space_px * options.bilateral_sigma_space_px);
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx)
+      p.spatial_weights_(dx + r, dy + r) = std::exp(-static_cast<float>(dx * dx + dy * dy) * inv_2ss);
+  p.row_weight_.allocate(working.width, 1);
+  p.row_sum_.allocate(working.width, 1);
+  p.range_scale_ = 1.0f / (2.0f * options.bilateral_sigma_depth_m * options.bilateral_sigma_depth_m);
+  return p;
+}
+
+ImageView<const float> Preprocessor::raw_depth() const { return raw_depth_.view(); }
+
+Status Preprocessor::process(ImageView<const float> depth, ImageView<const Rgb8> color) {
+  const int w = levels_[0].intrinsics.width, h = levels_[0].intrinsics.height;
+  if (depth.width != w || depth.height != h)
+    return error(ErrorCode::kInvalidArgument, "preprocess: depth is " + std::to_string(depth.width) + "x" +
+                                                  std::to_string(depth.height) + ", working size is " + std::to_string(w) +
+                                                  "x" + std::to_string(h));
+  if (!color.empty() && (color.width != w || color.height != h))
+    return error(ErrorCode::kInvalidArgument, "preprocess: colour is " + std::to_string(color.width) + "x" +
+                                                  std::to_string(color.height) + ", working size is " + std::to_string(w) +
+                                                  "x" + std::to_string(h));
+  Clock::time_point t = Clock::now();
+  const Clock::time_point start = t;
+  cut_off_and_pad(depth);
+  bilateral();
+  timings_.bilateral_ms = ms_since(t);
+  for (int l = 1; l < options_.levels; ++l) downsample_depth(l);
+  timings_.depth_pyramid_ms = ms_since(t);
+  for (int l = 0; l < options_.levels; ++l) vertex_normal(l);
+  timings_.vertex_normal_ms = ms_since(t);
+  has_intensity_ = !color.empty();
+  grey(color);
+  for (int l = 1; l < options_.levels; ++l) downsample_intensity(l);
+  for (int l = 0; l < options_.levels; ++l) gradients(l);
+  timings_.intensity_ms = ms_since(t);
+  timings_.total_ms = std::chrono::duration<double, std::milli>(t - start).count();
+  return Status::success();
+}
+
+void Preprocessor::cut_off_and_pad(ImageView<const float> depth) {
+  const int r = options_.bilateral_radius_px;
+  const float cutoff = options_.depth_cutoff_m;
+  for (int y = 0; y < depth.height; ++y) {
+    const float* src = depth.row(y);
+    float* raw = raw_depth_.data() + static_cast<std::size_t>(y) * depth.width;
+    float* pad = &padded_(r, y + r);
+    // `d > 0 && d <= cutoff` is false for NaN too.
+    for (int x = 0; x < depth.width; ++x) raw[x] = (src[x] > 0.0f && src[x] <= cutoff) ? src[x] : 0.0f;
+    for (int x = 0; x < depth.width; ++x) pad[x] = raw[x] > 0.0f ? raw[x] : kInvalidDepthSentinel;
+  }
+}
+
+// KinectFusion's bilateral filter (Newcombe et al. 2011, eq. 2; Tomasi and Manduchi 1998): for a
+// valid centre depth d_c, D(u) = sum_q Ns(|u - q|) Nr(d_q - d_c) d_q / sum_q Ns Nr over the valid
+// neighbours q of the window; an invalid centre stays invalid (holes are not filled). Written as one
+// pass per window offset over a whole row, into row accumulators, so the inner loop is branch-free
+// and the compiler vectorises it (SSE4.1 / NEON baseline). Invalid pixels and the border of
+// `padded_` hold kInvalidDepthSentinel, whose range weight is exactly 0: no masks, no bounds checks.
+// The Gaussian range kernel Nr is evaluated as (1 + t/8)^-8, t = (d_q - d_c)^2 / (2 sigma_depth^2).
+void Preprocessor::bilateral() {
+  const int r = options_.bilateral_radius_px;
+  Image<float>& out = levels_[0].depth;
+  const int w = out.width(), h = out.height();
+  if (r == 0) {
+    out.copy_from(raw_depth());
+    return;
+  }
+  float* sw = row_weight_.data();
+  float* swd = row_sum_.data();
+  const float k8 = range_scale_ * (1.0f / 8.0f);  // u = 1 + t / 8
+  for (int y = 0; y < h; ++y) {
+    const float* centre = &padded_(r, y + r);
+    for (int x = 0; x < w; ++x) sw[x] = swd[x] = 0.0f;
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const float ws = spatial_weights_(dx + r, dy + r);
+        const float* nb = &padded_(r + dx, y + r + dy);
+        for (int x = 0; x < w; ++x) {
+          const float dn = nb[x];
+          const float diff = dn - centre[x];
+          const float wgt = ws * inverse_eighth_power(1.0f + diff * diff * k8);
+          sw[x] += wgt;
+          swd[x] += wgt * dn;
+        }
+      }
+    }
+    float* o = out.data() + static_cast<std::size_t>(y) * w;
+    // A valid centre contributes ws(0,0) * 1 = 1 to sw, so sw >= 1; an invalid centre stays 0.
+    const float* raw = raw_depth_.data() + static_cast<std::size_t>(y) * w;
+    for (int x = 0; x < w; ++x) {
+      const float mean = swd[x] / sw[x];
+      o[x] = raw[x] > 0.0f ? mean : 0.0f;
+    }
+  }
+}
+
+// Level l from level l-1. Pixel (x, y) of level l covers pixels 2x, 2x+1 (and 2y, 2y+1) of level l-1,
+// its centre at 2x + 0.5 (the convention of Intrinsics::pyramid_level). The 4x4 window 2x-1 .. 2x+2
+// with weights [1 3 3 1] is centred there. Depths further than the threshold from the centre depth
+// are left out, as in KinectFusion's pyramid, so a coarse pixel on an edge takes one surface instead
+// of a depth between; the centre depth is that of the near surface within the central 2x2 block.
+void Preprocessor::downsample_depth(int l) {
+  const Image<float>& src = levels_[l - 1].depth;
+  Image<float>& dst = levels_[l].depth;
+  const int sw = src.width(), sh = src.height();
+  const float thr = options_.pyramid_depth_threshold_m;
+  static constexpr float kBinomial[4] = {1.0f, 3.0f, 3.0f, 1.0f};
+  for (int y = 0; y < dst.height(); ++y) {
+    for (int x = 0; x < dst.width(); ++x) {
+      float ref = 0.0f;
+      for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+          const float d = src(2 * x + i, 2 * y + j);
+          if (d > 0.0f && (ref == 0.0f || d < ref)) ref = d;
+        }
+      if (ref == 0.0f) {
+        dst(x, y) = 0.0f;
+        continue;
+      }
+      // The centre depth: the mean of the 2x2 block's depths on the near surface. Testing the window
+      // against it (not against the nearest depth) keeps the selection symmetric about the centre, so
+      // a steep slope is not biased toward its near side.
+      float centre = 0.0f;
+      int n_centre = 0;
+      for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+          const float d = src(2 * x + i, 2 * y + j);
+          if (d > 0.0f && d - ref <= thr) {
+            centre += d;
+            ++n_centre;
+          }
+        }
+      centre /= static_cast<float>(n_centre);
+      float sum = 0.0f, weight = 0.0f;
+      for (int j = 0; j < 4; ++j) {
+        const int yy = 2 * y - 1 + j;
+        if (yy < 0 || yy >= sh) continue;
+        for (int i = 0; i < 4; ++i) {
+          const int xx = 2 * x - 1 + i;
+          if (xx < 0 || xx >= sw) continue;
+          const float d = src(xx, yy);
+          if (d > 0.0f && std::fabs(d - centre) <= thr) {
+            const float b = kBinomial[i] * kBinomial[j];
+            sum += b * d;
+            weight += b;
+          }
+        }
+      }
+      // `centre` lies in [ref, ref + thr], so `ref` itself passes the test and weight > 0 (the guard
+      // covers a centre rounded one ulp beyond ref + thr).
+      dst(x, y) = weight > 0.0f ? sum / weight : centre;
+    }
+  }
+}
+
+// Vertex map V(u) = D(u) K^-1 [u, 1] and normal map N(u) = normalise((V(x, y+1) - V(x, y-1)) x
+// (V(x+1, y) - V(x-1, y))) (KinectFusion section 3.2, with central instead of forward differences,
+// so the normal belongs to the pixel's own centre). That cross product points toward the camera for
+// a surface seen from its front; it is flipped if noise makes n . v > 0.
+void Preprocessor::vertex_normal(int l) {
+  PyramidLevel& lv = levels_[l];
+  const Intrinsics& K = lv.intrinsics;
+  const int w = K.width, h = K.height;
+  const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
+  for (int y = 0; y < h; ++y) {
+    const float* d = lv.depth.data() + static_cast<std::size_t>(y) * w;
+    Eigen::Vector3f* v = lv.vertex.data() + static_cast<std::size_t>(y) * w;
+    for (int x = 0; x < w; ++x)
+      v[x] = d[x] > 0.0f ? K.backproject(static_cast<float>(x), static_cast<float>(y), d[x]) : zero;
+  }
+  // Largest depth step per unit depth between horizontal / vertical neighbours: 1 / (f tan(angle)).
+  const float inv_tan = 1.0f / std::tan(options_.normal_min_grazing_deg * (kPi / 180.0f));
+  const float step_x = inv_tan / K.fx, step_y = inv_tan / K.fy;
+  for (int y = 0; y < h; ++y) {
+    Eigen::Vector3f* n = lv.normal.data() + static_cast<std::size_t>(y) * w;
+    if (y == 0 || y == h - 1) {
+      for (int x = 0; x < w; ++x) n[x] = zero;
+      continue;
+    }
+    const Eigen::Vector3f* up = lv.vertex.data() + static_cast<std::size_t>(y - 1) * w;
+    const Eigen::Vector3f* mid = up + w;
+    const Eigen::Vector3f* down = mid + w;
+    n[0] = n[w - 1] = zero;
+    for (int x = 1; x < w - 1; ++x) {
+      const float zc = mid[x].z();
+      const float zl = mid[x - 1].z(), zr = mid[x + 1].z(), zu = up[x].z(), zd = down[x].z();
+      const float max_dx = zc * step_x, max_dy = zc * step_y;
+      // Invalid neighbours have z = 0, which also fails the step test (zc > 0 > max step is false
+      // only when zc itself is 0, caught by the first condition).
+      if (!(zc > 0.0f) || !(std::fabs(zl - zc) <= max_dx) || !(std::fabs(zr - zc) <= max_dx) ||
+          !(std::fabs(zu - zc) <= max_dy) || !(std::fabs(zd - zc) <= max_dy) || zl <= 0.0f || zr <= 0.0f ||
+          zu <= 0.0f || zd <= 0.0f) {
+        n[x] = zero;
+        continue;
+      }
+      const Eigen::Vector3f dx = mid[x + 1] - mid[x - 1];
+      const Eigen::Vector3f dy = down[x] - up[x];
+      Eigen::Vector3f c = dy.cross(dx);
+      const float len2 = c.squaredNorm();
+      if (!(len2 > 0.0f)) {
+        n[x] = zero;
+        continue;
+      }
+      c *= 1.0f / std::sqrt(len2);
+      if (c.dot(mid[x]) > 0.0f) c = -c;
+      n[x] = c;
+    }
+  }
+}
+
+void Preprocessor::grey(ImageView<const Rgb8> color) {
+  Image<float>& I = levels_[0].intensity;
+  if (color.empty()) {
+    for (int l = 0; l < options_.levels; ++l) levels_[l].intensity.fill(0.0f);
+    return;
+  }
+  for (int y = 0; y < I.height(); ++y) {
+    const Rgb8* c = color.row(y);
+    float* o = I.data() + static_cast<std::size_t>(y) * I.width();
+    for (int x = 0; x < I.width(); ++x)
+      o[x] = 0.299f * static_cast<float>(c[x].r) + 0.587f * static_cast<float>(c[x].g) + 0.114f * static_cast<float>(c[x].b);
+  }
+}
+
+// Gaussian-like 4x4 binomial [1 3 3 1]/8 (separable) centred on the 2x2 block, then decimation by 2;
+// borders replicated.
+void Preprocessor::downsample_intensity(int l) {
+  if (!has_intensity_) return;  // all zero already
+  const Image<float>& src = levels_[l - 1].intensity;
+  Image<float>& dst = levels_[l].intensity;
+  const int sw = src.width(), sh = src.height();
+  static constexpr float kBinomial[4] = {1.0f / 8, 3.0f / 8, 3.0f / 8, 1.0f / 8};
+  for (int y = 0; y < dst.height(); ++y) {
+    const float* rows[4];
+    for (int j = 0; j < 4; ++j) rows[j] = src.data() + static_cast<std::size_t>(clamp_index(2 * y - 1 + j, sh)) * sw;
+    for (int x = 0; x < dst.width(); ++x) {
+      int xs[4];
+      for (int i = 0; i < 4; ++i) xs[i] = clamp_index(2 * x - 1 + i, sw);
+      float acc = 0.0f;
+      for (int j = 0; j < 4; ++j) {
+        const float row = kBinomial[0] * rows[j][xs[0]] + kBinomial[1] * rows[j][xs[1]] + kBinomial[2] * rows[j][xs[2]] +
+                          kBinomial[3] * rows[j][xs[3]];
+        acc += kBinomial[j] * row;
+      }
+      dst(x, y) = acc;
+    }
+  }
+}
+
+// Sobel derivative [-1 0 1] x [1 2 1]^T / 8: grey levels per pixel, borders replicated.
+void Preprocessor::gradients(int l) {
+  PyramidLevel& lv = levels_[l];
+  const int w = lv.intensity.width(), h = lv.intensity.height();
+  if (!has_intensity_) {
+    lv.grad_x.fill(0.0f);
+    lv.grad_y.fill(0.0f);
+    return;
+  }
+  const float* I = lv.intensity.data();
+  for (int y = 0; y < h; ++y) {
+    const float* up = I + static_cast<std::size_t>(clamp_index(y - 1, h)) * w;
+    const float* mid = I + static_cast<std::size_t>(y) * w;
+    const float* down = I + static_cast<std::size_t>(clamp_index(y + 1, h)) * w;
+    float* gx = lv.grad_x.data() + static_cast<std::size_t>(y) * w;
+    float* gy = lv.grad_y.data() + static_cast<std::size_t>(y) * w;
+    auto sample = [&](int x0, int x, int x1) {
+      gx[x] = ((up[x1] + 2.0f * mid[x1] + down[x1]) - (up[x0] + 2.0f * mid[x0] + down[x0])) * 0.125f;
+      gy[x] = ((down[x0] + 2.0f * down[x] + down[x1]) - (up[x0] + 2.0f * up[x] + up[x1])) * 0.125f;
+    };
+    sample(0, 0, w > 1 ? 1 : 0);
+    for (int x = 1; x < w - 1; ++x) sample(x - 1, x, x + 1);
+    if (w > 1) sample(w - 2, w - 1, w - 1);
+  }
+}
+
+}  // namespace ef::slam
