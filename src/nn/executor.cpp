@@ -1,0 +1,194 @@
+// Graph executor: binds each layer once (kernel function pointer + arguments with arena pointers),
+// then run() is a loop of indirect calls. Kernel choice: the scalar reference for now; a dispatched
+// variant table per op family replaces the `*_ref` pointers below without touching the loop.
+#include "nn/executor.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace ef::nn {
+
+struct Executor::Step {
+  LayerType type;
+  ConvI8Fn conv = nullptr;
+  AddI8Fn add = nullptr;
+  ConcatI8Fn concat = nullptr;
+  ClampI8Fn clamp = nullptr;
+  PoolI8Fn pool = nullptr;
+  UpsampleI8Fn upsample = nullptr;
+  SoftmaxI8Fn softmax = nullptr;
+  ConvArgs conv_args;
+  AddArgs add_args;
+  ConcatArgs concat_args;
+  ClampArgs clamp_args;
+  PoolArgs pool_args;
+  UpsampleArgs upsample_args;
+  SoftmaxArgs softmax_args;
+};
+
+Executor::Executor(const Model& model, MemoryPlan plan) : model_(model), plan_(std::move(plan)) {}
+Executor::~Executor() = default;
+
+Result<std::unique_ptr<Executor>> Executor::create(const Model& model, const PlanOptions& options) {
+  EF_ASSIGN_OR_RETURN(MemoryPlan plan, plan_memory(model, options));
+  std::unique_ptr<Executor> ex(new Executor(model, std::move(plan)));
+  ex->arena_ = std::make_unique<Arena>(ex->plan_.total_bytes == 0 ? Arena::kMaxAlign : ex->plan_.total_bytes);
+  ex->base_ = static_cast<int8_t*>(ex->arena_->allocate_bytes(ex->arena_->capacity(), Arena::kMaxAlign));
+  if (ex->base_ == nullptr) return error(ErrorCode::kResourceExhausted, model.source + ": executor: arena allocation failed");
+  EF_RETURN_IF_ERROR(ex->bind());
+  return ex;
+}
+
+const int8_t* Executor::tensor_data(uint32_t id) const {
+  if (id >= plan_.offset.size() || plan_.offset[id] == MemoryPlan::kNotInArena) return nullptr;
+  return base_ + plan_.offset[id];
+}
+
+Status Executor::bind() {
+  const ModelDesc& d = model_.desc;
+  auto view = [&](uint32_t id) {
+    const TensorDesc& t = d.tensors[id];
+    return TensorI8{base_ + plan_.offset[id], int(t.h), int(t.w), int(t.c), t.zero_point};
+  };
+  auto mut_view = [&](uint32_t id) {
+    const TensorDesc& t = d.tensors[id];
+    return MutTensorI8{base_ + plan_.offset[id], int(t.h), int(t.w), int(t.c), t.zero_point};
+  };
+  const TensorDesc& in = d.tensors[d.input_tensor];
+  input_elems_ = static_cast<std::size_t>(in.elements());
+  output_elems_ = static_cast<std::size_t>(d.tensors[d.output_tensor].elements());
+  input_mul_.resize(in.c);
+  for (uint32_t c = 0; c < in.c; ++c) input_mul_[c] = double(d.input_scale[c]) / double(in.scale);
+
+  steps_.resize(d.layers.size());
+  for (std::size_t li = 0; li < d.layers.size(); ++li) {
+    const LayerDesc& l = d.layers[li];
+    const PreparedLayer& p = model_.prepared[li];
+    Step& s = steps_[li];
+    s.type = l.type;
+    // Every int8 tensor a layer touches must have been placed.
+    for (uint32_t t : l.inputs)
+      if (plan_.offset[t] == MemoryPlan::kNotInArena)
+        return error(ErrorCode::kInternal, model_.source + ": executor: layer " + std::to_string(li) + " input not planned");
+    if (l.type != LayerType::kSoftmax && plan_.offset[l.output] == MemoryPlan::kNotInArena)
+      return error(ErrorCode::kInternal, model_.source + ": executor: layer " + std::to_string(li) + " output not planned");
+    switch (l.type) {
+      case LayerType::kConv2d:
+      case LayerType::kDepthwiseConv2d:
+      case LayerType::kPointwiseConv2d: {
+        s.conv = l.type == LayerType::kConv2d ? conv2d_i8_ref
+                 : l.type == LayerType::kDepthwiseConv2d ? dwconv2d_i8_ref : pwconv2d_i8_ref;
+        ConvArgs& a = s.conv_args;
+        a.in = view(l.inputs[0]);
+        a.out = mut_view(l.output);
+        a.kernel_h = int(l.kernel_h); a.kernel_w = int(l.kernel_w);
+        a.stride_h = int(l.stride_h); a.stride_w = int(l.stride_w);
+        a.dilation_h = int(l.dilation_h); a.dilation_w = int(l.dilation_w);
+        a.pad_top = int(l.pad_top); a.pad_left = int(l.pad_left);
+        a.weights = p.packed.data(); a.bias = p.bias.data(); a.requant = p.requant.data();
+        a.out_min = l.out_min; a.out_max = l.out_max;
+        break;
+      }
+      case LayerType::kAdd:
+        s.add = add_i8_ref;
+        s.add_args.a = view(l.inputs[0]);
+        s.add_args.b = view(l.inputs[1]);
+        s.add_args.out = mut_view(l.output);
+        s.add_args.rq_a = p.requant[0];
+        s.add_args.rq_b = p.requant[1];
+        s.add_args.out_min = l.out_min; s.add_args.out_max = l.out_max;
+        break;
+      case LayerType::kConcat:
+        s.concat = concat_i8_ref;
+        s.concat_args.count = int(l.inputs.size());
+        for (std::size_t k = 0; k < l.inputs.size(); ++k) {
+          s.concat_args.in[k] = view(l.inputs[k]);
+          s.concat_args.rq[k] = p.requant[k];
+        }
+        s.concat_args.out = mut_view(l.output);
+        break;
+      case LayerType::kClamp:
+        s.clamp = clamp_i8_ref;
+        s.clamp_args.in = view(l.inputs[0]);
+        s.clamp_args.out = mut_view(l.output);
+        s.clamp_args.out_min = l.out_min; s.clamp_args.out_max = l.out_max;
+        break;
+      case LayerType::kMaxPool:
+      case LayerType::kAvgPool:
+        s.pool = l.type == LayerType::kMaxPool ? maxpool_i8_ref : avgpool_i8_ref;
+        s.pool_args.in = view(l.inputs[0]);
+        s.pool_args.out = mut_view(l.output);
+        s.pool_args.kernel_h = int(l.kernel_h); s.pool_args.kernel_w = int(l.kernel_w);
+        s.pool_args.stride_h = int(l.stride_h); s.pool_args.stride_w = int(l.stride_w);
+        s.pool_args.pad_top = int(l.pad_top); s.pool_args.pad_left = int(l.pad_left);
+        s.pool_args.requant_by_count = p.requant.data();
+        break;
+      case LayerType::kUpsample:
+        s.upsample = l.mode == UpsampleMode::kNearest ? upsample_nearest_i8_ref : upsample_bilinear_i8_ref;
+        s.upsample_args.in = view(l.inputs[0]);
+        s.upsample_args.out = mut_view(l.output);
+        s.upsample_args.factor = int(l.factor);
+        break;
+      case LayerType::kSoftmax:
+        s.softmax = softmax_i8_ref;
+        s.softmax_args.in = view(l.inputs[0]);
+        s.softmax_args.exp_table = p.exp_table.data();
+        break;
+    }
+  }
+  return {};
+}
+
+void Executor::quantize_input(const float* input) {
+  // q = clamp(zp + round_half_away((double(v) - mean) * (scale / s_in)), -128, 127); NaN -> zp.
+  const TensorDesc& in = model_.desc.tensors[model_.desc.input_tensor];
+  int8_t* q = base_ + plan_.offset[model_.desc.input_tensor];
+  const std::size_t c = in.c;
+  for (std::size_t i = 0; i < input_elems_; ++i) {
+    const std::size_t ch = i % c;
+    const double t = (double(input[i]) - double(model_.desc.input_mean[ch])) * input_mul_[ch];
+    double r = std::isnan(t) ? 0.0 : std::round(t) + in.zero_point;
+    r = r < -128.0 ? -128.0 : (r > 127.0 ? 127.0 : r);
+    q[i] = static_cast<int8_t>(r);
+  }
+}
+
+void Executor::run_layers(float* probs) {
+  for (Step& s : steps_) {
+    switch (s.type) {
+      case LayerType::kConv2d:
+      case LayerType::kDepthwiseConv2d:
+      case LayerType::kPointwiseConv2d: s.conv(s.conv_args); break;
+      case LayerType::kAdd: s.add(s.add_args); break;
+      case LayerType::kConcat: s.concat(s.concat_args); break;
+      case LayerType::kClamp: s.clamp(s.clamp_args); break;
+      case LayerType::kMaxPool:
+      case LayerType::kAvgPool: s.pool(s.pool_args); break;
+      case LayerType::kUpsample: s.upsample(s.upsample_args); break;
+      case LayerType::kSoftmax:
+        s.softmax_args.out = probs;
+        s.softmax(s.softmax_args);
+        break;
+    }
+  }
+}
+
+Status Executor::run(const float* input, std::size_t input_floats, float* probs, std::size_t probs_floats) {
+  if (input == nullptr || input_floats != input_elems_ || probs == nullptr || probs_floats != output_elems_)
+    return error(ErrorCode::kInvalidArgument, model_.source + ": run: input needs " + std::to_string(input_elems_) +
+                                                  " floats and output " + std::to_string(output_elems_) + " floats");
+  quantize_input(input);
+  run_layers(probs);
+  return {};
+}
+
+Status Executor::run_quantized(const int8_t* input_q, std::size_t input_bytes, float* probs, std::size_t probs_floats) {
+  if (input_q == nullptr || input_bytes != input_elems_ || probs == nullptr || probs_floats != output_elems_)
+    return error(ErrorCode::kInvalidArgument, model_.source + ": run_quantized: input needs " + std::to_string(input_elems_) +
+                                                  " bytes and output " + std::to_string(output_elems_) + " floats");
+  std::memcpy(base_ + plan_.offset[model_.desc.input_tensor], input_q, input_elems_);
+  run_layers(probs);
+  return {};
+}
+
+}  // namespace ef::nn
