@@ -51,6 +51,26 @@ inline int16_t tile_bound(float t, int tiles) {
   return static_cast<int16_t>(std::min(std::max(t, -1.0f), static_cast<float>(tiles)));
 }
 
+// Matrix products and dot products written out in scalar code, summed left to right. Eigen's own
+// products and reductions are not used here: on ARM64 Eigen evaluates 3 x 3 float products with NEON half-packet fused
+// multiply-adds (vfma, whatever -ffp-contract says) and on x86-64 with separate multiplies and
+// adds, so the images would differ in the last bits of depth (and then in colour).
+inline Eigen::Vector3f mul(const Eigen::Matrix3f& M, const Eigen::Vector3f& v) {
+  return Eigen::Vector3f(M(0, 0) * v.x() + M(0, 1) * v.y() + M(0, 2) * v.z(),
+                         M(1, 0) * v.x() + M(1, 1) * v.y() + M(1, 2) * v.z(),
+                         M(2, 0) * v.x() + M(2, 1) * v.y() + M(2, 2) * v.z());
+}
+inline float dot(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+  return a.x() * b.x() + a.y() * b.y() + a.z() * b.z();
+}
+// A * B^T.
+inline Eigen::Matrix3f mul_transposed(const Eigen::Matrix3f& A, const Eigen::Matrix3f& B) {
+  Eigen::Matrix3f C;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) C(i, j) = A(i, 0) * B(j, 0) + A(i, 1) * B(j, 1) + A(i, 2) * B(j, 2);
+  return C;
+}
+
 // Rotation matrix of the unit quaternion q, written out here (not Eigen's toRotationMatrix) so that
 // its operations are compiled with this file's flags (no fused multiply-add) on every ISA.
 Eigen::Matrix3f rotation_of(const Eigen::Quaterniond& q) {
@@ -88,7 +108,7 @@ void Renderer::bin_primitives(const Eigen::Matrix3f& R_cw, const Eigen::Vector3f
     // Camera direction -> world (R_wc = R_cw^T) -> local (rotation by -yaw about z).
     Eigen::Matrix3f R_lw;
     R_lw << p.cos_yaw, p.sin_yaw, 0, -p.sin_yaw, p.cos_yaw, 0, 0, 0, 1;
-    fp.M = R_lw * R_cw.transpose();
+    fp.M = mul_transposed(R_lw, R_cw);
     fp.origin = p.to_local(t_wc);
     // Project the 8 corners of the local bounding box.
     float z_min = std::numeric_limits<float>::infinity();
@@ -98,7 +118,7 @@ void Renderer::bin_primitives(const Eigen::Matrix3f& R_cw, const Eigen::Vector3f
       const Eigen::Vector3f corner_local((c & 1 ? 1.f : -1.f) * p.half.x(), (c & 2 ? 1.f : -1.f) * p.half.y(),
                                          (c & 4 ? 1.f : -1.f) * p.half.z());
       const Eigen::Vector3f pw = p.center + p.dir_to_world(corner_local);
-      const Eigen::Vector3f pc = R_cw * (pw - t_wc);
+      const Eigen::Vector3f pc = mul(R_cw, pw - t_wc);
       z_min = std::min(z_min, pc.z());
       if (pc.z() < kNear) {
         crosses_near = true;
@@ -149,8 +169,8 @@ Eigen::Vector3f Renderer::shade(const Material& m, float u, float v, float hu, f
   Eigen::Vector3f light = scene_.ambient;
   for (const Light& l : scene_.lights) {
     const Eigen::Vector3f L = l.position - p;
-    const float d2 = L.squaredNorm();
-    const float ndl = n.dot(L) / std::sqrt(d2);
+    const float d2 = dot(L, L);
+    const float ndl = dot(n, L) / std::sqrt(d2);
     if (ndl > 0) light += l.color * (ndl / (1.0f + d2 / (l.falloff * l.falloff)));
   }
   return a.cwiseProduct(light * (1.0f - m.emission) + Eigen::Vector3f::Constant(m.emission));
@@ -177,7 +197,7 @@ void Renderer::render(const SE3& T_wc, ImageView<Rgb8> color, ImageView<float> d
         for (int x = tx * kTile; x < x_end; ++x) {
           const float xn = (static_cast<float>(x) - K_.cx) * inv_fx;
           const Eigen::Vector3f dc(xn, yn, 1.0f);  // ray parameter t == depth along z
-          const Eigen::Vector3f dw = R_wc * dc;
+          const Eigen::Vector3f dw = mul(R_wc, dc);
           // The room box from inside: nearest face the ray leaves through.
           float best = std::numeric_limits<float>::infinity();
           int axis = 0;
@@ -194,7 +214,7 @@ void Renderer::render(const SE3& T_wc, ImageView<Rgb8> color, ImageView<float> d
             const uint16_t i = list[k];
             const FramePrim& fp = frame_prims_[i];
             if (fp.z_min >= best) break;  // this and all later ones lie behind the hit
-            const Eigen::Vector3f dl = fp.M * dc;
+            const Eigen::Vector3f dl = mul(fp.M, dc);
             float t;
             Eigen::Vector3f nl;
             if (intersect_local(scene_.primitives[i], fp.origin, dl, kTMin, t, nl) && t < best) {
@@ -210,7 +230,7 @@ void Renderer::render(const SE3& T_wc, ImageView<Rgb8> color, ImageView<float> d
           if (hit_prim >= 0) {
             const Primitive& p = scene_.primitives[hit_prim];
             const FramePrim& fp = frame_prims_[hit_prim];
-            const Eigen::Vector3f q = fp.origin + best * (fp.M * dc);
+            const Eigen::Vector3f q = fp.origin + best * mul(fp.M, dc);
             float u, v, hu, hv;
             primitive_uv(p, q, hit_n, u, v, hu, hv);
             nw = p.dir_to_world(hit_n);
@@ -236,7 +256,7 @@ void Renderer::render(const SE3& T_wc, ImageView<Rgb8> color, ImageView<float> d
           color(x, y) = Rgb8{to_srgb8(rgb.x()), to_srgb8(rgb.y()), to_srgb8(rgb.z())};
           depth(x, y) = best;
           labels(x, y) = label;
-          incidence(x, y) = std::fabs(nw.dot(dw)) / dw.norm();
+          incidence(x, y) = std::fabs(dot(nw, dw)) / std::sqrt(dot(dw, dw));
         }
       }
     }

@@ -62,11 +62,13 @@ class Builder {
     return m;
   }
   // Random draws are always separate statements: the order in which the arguments of one call
-  // are evaluated is unspecified, and GCC picks different orders on x86-64 and ARM64.
+  // are evaluated is unspecified, and GCC picks different orders on x86-64 (last argument first)
+  // and ARM64 (first argument first). The draws are made in the order the x86-64 builds always
+  // made them, so the rooms generated on x86-64 so far stay what they were.
   Vec3 vary(const Vec3& c, float amount) {
-    const float fr = rng_.uniform(1 - amount, 1 + amount);
-    const float fg = rng_.uniform(1 - amount, 1 + amount);
     const float fb = rng_.uniform(1 - amount, 1 + amount);
+    const float fg = rng_.uniform(1 - amount, 1 + amount);
+    const float fr = rng_.uniform(1 - amount, 1 + amount);
     return Vec3(c.x() * fr, c.y() * fg, c.z() * fb).cwiseMin(1.0f);
   }
   Material wood() {
@@ -86,8 +88,8 @@ class Builder {
   }
   Material stripes() {
     const Vec3 b = fabric().base;
-    const Vec3 accent = vary(Vec3(0.9f, 0.88f, 0.8f), 0.1f);
     const float scale = rng_.uniform(0.08f, 0.2f);
+    const Vec3 accent = vary(Vec3(0.9f, 0.88f, 0.8f), 0.1f);
     return mat(TextureKind::kStripes, b, accent, scale);
   }
   Material metal() { return mat(TextureKind::kPlain, vary(Vec3(0.3f, 0.3f, 0.32f), 0.2f), Vec3::Zero(), 0.1f); }
@@ -103,8 +105,8 @@ class Builder {
     const bool paper = rng_.chance(0.4f);
     for (int f = kWallYMin; f <= kWallXMin; ++f) {
       if (paper && f == kWallYMax) {
-        const Vec3 accent = vary(Vec3(0.55f, 0.45f, 0.4f), 0.2f);
         const float scale = rng_.uniform(0.15f, 0.3f);
+        const Vec3 accent = vary(Vec3(0.55f, 0.45f, 0.4f), 0.2f);
         s_.face_material[f] = mat(TextureKind::kWallpaper, wall_col, accent, scale);
       } else {
         s_.face_material[f] = mat(TextureKind::kPlaster, wall_col, Vec3::Zero(), rng_.uniform(0.15f, 0.4f));
@@ -115,8 +117,8 @@ class Builder {
       const Material w = wood();
       s_.face_material[kFloorFace] = mat(TextureKind::kPlanks, w.base, w.accent, rng_.uniform(0.12f, 0.22f));
     } else {
-      const Vec3 base = vary(Vec3(0.7f, 0.68f, 0.62f), 0.2f);
       const float scale = rng_.uniform(0.3f, 0.6f);
+      const Vec3 base = vary(Vec3(0.7f, 0.68f, 0.62f), 0.2f);
       s_.face_material[kFloorFace] = mat(TextureKind::kTiles, base, Vec3(0.3f, 0.3f, 0.3f), scale);
     }
     // Two ceiling lights along the longer axis, warm to cool, and an ambient term.
@@ -323,8 +325,8 @@ class Builder {
           part(pl, Vec3(x, y, z + 0.05f), Vec3(0.04f, 0.04f, 0.05f), kObjects, bright(), Shape::kCylinder);
           break;
         case 1: {  // box
-          const Material m = painted();
           const float yaw = rng_.uniform(-1, 1);
+          const Material m = painted();
           part(pl, Vec3(x, y, z + 0.05f), Vec3(0.1f, 0.07f, 0.05f), kObjects, m, Shape::kBox, yaw);
           break;
         }
@@ -390,9 +392,9 @@ class Builder {
 
 void living_room(Builder& b) {
   Pcg32& r = b.rng();
-  const float width = r.uniform(5.0f, 6.5f);
+  const float height = r.uniform(2.5f, 2.9f);  // drawn last to first (see Builder::vary)
   const float depth = r.uniform(4.2f, 5.5f);
-  const float height = r.uniform(2.5f, 2.9f);
+  const float width = r.uniform(5.0f, 6.5f);
   b.shell(Vec3(width, depth, height));
   const int back = static_cast<int>(r.below(2)) * 2;  // sofa on wall 0 or 2
   Placement pl;
@@ -409,8 +411,8 @@ void living_room(Builder& b) {
     }
   }
   {
+    const float h = r.uniform(0.5f, 0.8f);  // drawn last to first (see Builder::vary)
     const float w = r.uniform(0.8f, 1.3f);
-    const float h = r.uniform(0.5f, 0.8f);
     b.painting(back, w, h, 1.6f);
   }
   const int opposite = (back + 2) % 4;
@@ -424,13 +426,13 @@ void living_room(Builder& b) {
   if (b.find_any_wall_spot(1, 0.4f, 0.4f, 0, 1.9f, 0.1f, pl)) b.lamp(pl, 0, 1.55f);
   if (b.find_any_wall_spot(3, 0.6f, 0.6f, 0, 1.0f, 0.05f, pl)) b.plant(pl);
   {
+    const float h = r.uniform(1.1f, 1.4f);  // drawn last to first (see Builder::vary)
     const float w = r.uniform(1.0f, 1.6f);
-    const float h = r.uniform(1.1f, 1.4f);
     b.window(3, w, h);
   }
   {
+    const float h = r.uniform(1.1f, 1.4f);  // drawn last to first (see Builder::vary)
     const float w = r.uniform(0.9f, 1.3f);
-    const float h = r.uniform(1.1f, 1.4f);
     b.window(1, w, h);
   }
   b.painting(1, 0.6f, 0.45f, 1.5f);
@@ -438,9 +440,9 @@ void living_room(Builder& b) {
 
 void bedroom(Builder& b) {
   Pcg32& r = b.rng();
-  const float width = r.uniform(4.2f, 5.5f);
+  const float height = r.uniform(2.4f, 2.7f);  // drawn last to first (see Builder::vary)
   const float depth = r.uniform(4.5f, 5.5f);
-  const float height = r.uniform(2.4f, 2.7f);
+  const float width = r.uniform(4.2f, 5.5f);
   b.shell(Vec3(width, depth, height));
   const int head = static_cast<int>(r.below(4));
   const float bw = r.uniform(1.4f, 1.8f);
@@ -480,9 +482,9 @@ void bedroom(Builder& b) {
 
 void office(Builder& b) {
   Pcg32& r = b.rng();
-  const float width = r.uniform(4.0f, 5.5f);
+  const float height = r.uniform(2.5f, 3.0f);  // drawn last to first (see Builder::vary)
   const float depth = r.uniform(3.8f, 5.0f);
-  const float height = r.uniform(2.5f, 3.0f);
+  const float width = r.uniform(4.0f, 5.5f);
   b.shell(Vec3(width, depth, height));
   Placement pl;
   for (int i = 0; i < 2; ++i) {
@@ -515,9 +517,9 @@ void office(Builder& b) {
 
 void kitchen(Builder& b) {
   Pcg32& r = b.rng();
-  const float width = r.uniform(4.5f, 6.0f);
+  const float height = r.uniform(2.4f, 2.8f);  // drawn last to first (see Builder::vary)
   const float depth = r.uniform(3.8f, 4.8f);
-  const float height = r.uniform(2.4f, 2.8f);
+  const float width = r.uniform(4.5f, 6.0f);
   b.shell(Vec3(width, depth, height));
   Placement pl;
   // A run of counters (furniture) with clutter, and wall cabinets above.
@@ -561,9 +563,9 @@ void kitchen(Builder& b) {
 
 void library(Builder& b) {
   Pcg32& r = b.rng();
-  const float width = r.uniform(5.0f, 6.5f);
+  const float height = r.uniform(2.7f, 3.0f);  // drawn last to first (see Builder::vary)
   const float depth = r.uniform(4.5f, 5.5f);
-  const float height = r.uniform(2.7f, 3.0f);
+  const float width = r.uniform(5.0f, 6.5f);
   b.shell(Vec3(width, depth, height));
   Placement pl;
   for (int wall = 0; wall < 4; ++wall) {

@@ -27,6 +27,10 @@ float rect_sdf(float qx, float qy) {
 }
 
 // Interval [t0, t1] where o + t d lies within |x| <= h along one axis; false when never.
+// Dot product summed left to right in scalar code (Eigen's reductions may use other orders and
+// fused multiply-adds on ARM64's NEON half packets).
+float dot3(const Eigen::Vector3f& a, const Eigen::Vector3f& b) { return a.x() * b.x() + a.y() * b.y() + a.z() * b.z(); }
+
 bool slab(float o, float d, float h, float& t0, float& t1) {
   if (d == 0.0f) {
     t0 = -kInf;
@@ -58,7 +62,7 @@ float Primitive::local_signed_distance(const Eigen::Vector3f& q) const {
     case Shape::kCylinder:
       return rect_sdf(std::sqrt(q.x() * q.x() + q.y() * q.y()) - half.x(), std::fabs(q.z()) - half.z());
     case Shape::kSphere:
-      return q.norm() - half.x();
+      return std::sqrt(dot3(q, q)) - half.x();
   }
   return kInf;
 }
@@ -118,9 +122,9 @@ bool intersect_local(const Primitive& p, const Eigen::Vector3f& o, const Eigen::
   }
   // Sphere.
   const float r = p.half.x();
-  const float a = d.squaredNorm();
-  const float b = o.dot(d);
-  const float c = o.squaredNorm() - r * r;
+  const float a = dot3(d, d);
+  const float b = dot3(o, d);
+  const float c = dot3(o, o) - r * r;
   const float disc = b * b - a * c;
   if (disc < 0) return false;
   const float s = std::sqrt(disc);

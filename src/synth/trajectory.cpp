@@ -18,46 +18,33 @@ constexpr double kTwoPi = 6.283185307179586;
 // machine (libm's last bit differs between glibc on x86-64 and on ARM64, and the sampler's
 // decisions below would amplify one bit into a different frame).
 
-// Unit quaternion of a rotation matrix (Shepperd's method: the largest of w, x, y, z first),
-// written out here rather than taken from Eigen so that its operations are those of this file.
-Eigen::Quaterniond to_quaternion(const Eigen::Matrix3d& R) {
-  const double m00 = R(0, 0), m11 = R(1, 1), m22 = R(2, 2);
-  const double trace = (m00 + m11) + m22;
-  double w, x, y, z;
-  if (trace >= m00 && trace >= m11 && trace >= m22) {
-    const double r = std::sqrt(1.0 + trace);
-    const double f = 0.5 / r;
-    w = 0.5 * r;
-    x = (R(2, 1) - R(1, 2)) * f;
-    y = (R(0, 2) - R(2, 0)) * f;
-    z = (R(1, 0) - R(0, 1)) * f;
-  } else if (m00 >= m11 && m00 >= m22) {
-    const double r = std::sqrt(((1.0 + m00) - m11) - m22);
-    const double f = 0.5 / r;
-    x = 0.5 * r;
-    w = (R(2, 1) - R(1, 2)) * f;
-    y = (R(0, 1) + R(1, 0)) * f;
-    z = (R(0, 2) + R(2, 0)) * f;
-  } else if (m11 >= m22) {
-    const double r = std::sqrt(((1.0 + m11) - m00) - m22);
-    const double f = 0.5 / r;
-    y = 0.5 * r;
-    w = (R(0, 2) - R(2, 0)) * f;
-    x = (R(0, 1) + R(1, 0)) * f;
-    z = (R(1, 2) + R(2, 1)) * f;
+// Quaternion of a rotation matrix, written out here rather than taken from Eigen so that its
+// operations are compiled with this file's flags (no fused multiply-add) on every ISA. The same
+// steps, in the same order, as Eigen 3.4's conversion (which the generator used before), so the
+// poses keep their bits; SE3 normalises the result.
+Eigen::Quaterniond to_quaternion(const Eigen::Matrix3d& m) {
+  double q[4];  // x, y, z, w
+  double t = (m(0, 0) + m(1, 1)) + m(2, 2);
+  if (t > 0.0) {
+    t = std::sqrt(t + 1.0);
+    q[3] = 0.5 * t;
+    t = 0.5 / t;
+    q[0] = (m(2, 1) - m(1, 2)) * t;
+    q[1] = (m(0, 2) - m(2, 0)) * t;
+    q[2] = (m(1, 0) - m(0, 1)) * t;
   } else {
-    const double r = std::sqrt(((1.0 + m22) - m00) - m11);
-    const double f = 0.5 / r;
-    z = 0.5 * r;
-    w = (R(1, 0) - R(0, 1)) * f;
-    x = (R(0, 2) + R(2, 0)) * f;
-    y = (R(1, 2) + R(2, 1)) * f;
+    int i = 0;
+    if (m(1, 1) > m(0, 0)) i = 1;
+    if (m(2, 2) > m(i, i)) i = 2;
+    const int j = (i + 1) % 3, k = (j + 1) % 3;
+    t = std::sqrt(((m(i, i) - m(j, j)) - m(k, k)) + 1.0);
+    q[i] = 0.5 * t;
+    t = 0.5 / t;
+    q[3] = (m(k, j) - m(j, k)) * t;
+    q[j] = (m(j, i) + m(i, j)) * t;
+    q[k] = (m(k, i) + m(i, k)) * t;
   }
-  if (w < 0) {  // one sign convention: w >= 0
-    w = -w; x = -x; y = -y; z = -z;
-  }
-  const double n = std::sqrt(((w * w + x * x) + y * y) + z * z);
-  return Eigen::Quaterniond(w / n, x / n, y / n, z / n);
+  return Eigen::Quaterniond(q[3], q[0], q[1], q[2]);
 }
 
 SE3 make_pose(const Eigen::Matrix3d& R, const Vec3& t) { return SE3(to_quaternion(R), t); }
@@ -109,7 +96,8 @@ std::vector<SE3> sample(const PathFn& path, int frames, double fps, double v_max
     const double target = static_cast<double>(i) / fps;
     while (true) {
       const SE3 next = path(s + ds);
-      const double dp = (next.translation() - prev.translation()).norm();
+      const Vec3 step = next.translation() - prev.translation();
+      const double dp = std::sqrt((step.x() * step.x() + step.y() * step.y()) + step.z() * step.z());
       const double da = rotation_angle(prev.inverse().rotation() * next.rotation());
       const double dt = std::max(dp / v_max, da / w_max);
       if (t + dt >= target) {
