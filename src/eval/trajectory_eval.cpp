@@ -1,5 +1,7 @@
 #include "eval/trajectory_eval.h"
 
+#include "core/time_association.h"
+
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -41,30 +43,11 @@ std::string names(const Trajectory& gt, const Trajectory& est) {
 
 std::vector<std::pair<int, int>> associate_timestamps(const std::vector<TimedPose>& a, const std::vector<TimedPose>& b,
                                                       double max_dt) {
-  struct Candidate {
-    double dt;
-    int i, j;
-  };
-  std::vector<Candidate> cand;
-  // b is sorted: for each a_i, the b_j within max_dt form a contiguous run.
-  std::size_t lo = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const double t = a[i].timestamp;
-    while (lo < b.size() && b[lo].timestamp < t - max_dt) ++lo;
-    for (std::size_t j = lo; j < b.size() && b[j].timestamp <= t + max_dt; ++j) {
-      const double dt = std::abs(b[j].timestamp - t);
-      if (dt <= max_dt) cand.push_back({dt, static_cast<int>(i), static_cast<int>(j)});
-    }
-  }
-  std::stable_sort(cand.begin(), cand.end(), [](const Candidate& x, const Candidate& y) { return x.dt < y.dt; });
-  std::vector<char> used_a(a.size(), 0), used_b(b.size(), 0);
+  std::vector<double> ta(a.size()), tb(b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) ta[i] = a[i].timestamp;
+  for (std::size_t j = 0; j < b.size(); ++j) tb[j] = b[j].timestamp;
   std::vector<std::pair<int, int>> out;
-  for (const Candidate& c : cand) {
-    if (used_a[c.i] || used_b[c.j]) continue;
-    used_a[c.i] = used_b[c.j] = 1;
-    out.emplace_back(c.i, c.j);
-  }
-  std::sort(out.begin(), out.end());
+  for (const auto& [i, j] : associate_timestamps(ta, tb, max_dt)) out.emplace_back(static_cast<int>(i), static_cast<int>(j));
   return out;
 }
 

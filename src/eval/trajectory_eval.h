@@ -16,9 +16,9 @@
 
 namespace ef {
 
-// One-to-one association of two timestamp lists (both strictly increasing): candidate pairs with
-// |t_a - t_b| <= max_dt are accepted greedily by increasing time difference (as TUM's associate.py).
-// Returns (index in a, index in b) pairs sorted by index in a.
+// associate_timestamps() of core/time_association.h applied to two trajectories' stamps
+// (|t_a - t_b| < max_dt, greedy by smallest difference, as TUM's associate.py). Returns
+// (index in a, index in b) pairs sorted by index in a.
 std::vector<std::pair<int, int>> associate_timestamps(const std::vector<TimedPose>& a, const std::vector<TimedPose>& b,
                                                       double max_dt);
 

@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "core/intrinsics.h"
+#include "core/time_association.h"
 #include "core/se3.h"
 #include "io/frame_source.h"
 
@@ -61,10 +62,7 @@ Result<std::vector<StampedPose>> parse_tum_groundtruth(std::string_view text, co
 // Parses intrinsics.txt text: one data line "fx fy cx cy" (pixels). Width and height are left 0.
 Result<Intrinsics> parse_tum_intrinsics(std::string_view text, const std::string& file);
 
-// One-to-one association of two increasing timestamp lists: pairs (index in a, index in b) with
-// |a - b| < max_dt, chosen greedily by smallest difference; returned sorted by index in a.
-std::vector<std::pair<std::size_t, std::size_t>> associate_timestamps(const std::vector<double>& a,
-                                                                      const std::vector<double>& b, double max_dt);
+// rgb/depth pairing uses associate_timestamps() from core/time_association.h.
 
 // Pose at time t from increasing groundtruth samples, by the rule above. False when none.
 bool lookup_pose(const std::vector<StampedPose>& groundtruth, double t, double max_dt, SE3& out);
