@@ -1,0 +1,328 @@
+// Tracker: relative poses of synthetic frames with known motion (noise off and on, pure rotation, a
+// larger motion the coarse levels must bring in), ICP-only / RGB-only / joint, lost frames, and a
+// real 7-Scenes pair against its reference poses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include "io/frame_resample.h"
+#include "slam/preprocess.h"
+#include "slam/preprocess_test_util.h"
+#include "slam/tracker.h"
+#include "sources/open_source.h"
+#include "synth/renderer.h"
+#include "synth/synthetic_source.h"
+#include "test_support.h"
+
+namespace ef::slam {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+struct PoseError {
+  double t_m, r_deg;
+};
+PoseError pose_error(const SE3& est, const SE3& truth) {
+  const SE3 d = est.inverse() * truth;
+  return {d.translation().norm(), d.angle() * kRadToDeg};
+}
+
+std::unique_ptr<synth::SyntheticSource> open_synth(const std::string& uri) {
+  auto parsed = parse_source_uri(uri);
+  EXPECT_TRUE(parsed.ok());
+  auto opts = synth::parse_synthetic_options(*parsed);
+  EXPECT_TRUE(opts.ok()) << to_string(opts.error());
+  auto src = synth::open_synthetic_source(*opts, uri);
+  EXPECT_TRUE(src.ok()) << to_string(src.error());
+  return std::move(src).value();
+}
+
+Preprocessor make_pre(const Intrinsics& K) {
+  auto p = Preprocessor::create(K);
+  EXPECT_TRUE(p.ok());
+  return std::move(p).value();
+}
+
+Tracker make_tracker(const Intrinsics& K, const TrackerOptions& o = {}) {
+  auto t = Tracker::create(K, 3, o);
+  EXPECT_TRUE(t.ok()) << to_string(t.error());
+  return std::move(t).value();
+}
+
+// Two preprocessed frames (reference, current) and the exact T_ref_cur between them.
+struct Pair {
+  Intrinsics K;
+  Preprocessor ref, cur;
+  SE3 truth;  // T_ref_cur
+};
+
+std::unique_ptr<Pair> make_pair(const Intrinsics& K, const Frame& a, const Frame& b, const SE3& T_w_a,
+                                const SE3& T_w_b) {
+  auto p = std::unique_ptr<Pair>(new Pair{K, make_pre(K), make_pre(K), T_w_a.inverse() * T_w_b});
+  EXPECT_TRUE(p->ref.process(a).ok());
+  EXPECT_TRUE(p->cur.process(b).ok());
+  return p;
+}
+
+// Frames i and j of a synthetic sequence.
+std::unique_ptr<Pair> synth_pair(const std::string& uri, int i, int j) {
+  auto src = open_synth(uri);
+  const Intrinsics K = src->info().intrinsics;
+  Frame a, b;
+  a.allocate(K.width, K.height, true);
+  b.allocate(K.width, K.height, true);
+  EXPECT_TRUE(src->render(i, a).ok());
+  EXPECT_TRUE(src->render(j, b).ok());
+  return make_pair(K, a, b, src->poses()[i], src->poses()[j]);
+}
+
+// Frame i of a synthetic sequence and a noise-free render at T_wc(i) * delta (delta: T_a_b).
+std::unique_ptr<Pair> synth_pair_at(const std::string& uri, int i, const SE3& delta) {
+  auto src = open_synth(uri);
+  const Intrinsics K = src->info().intrinsics;
+  synth::Renderer renderer(src->scene(), K);
+  Frame a, b;
+  a.allocate(K.width, K.height, true);
+  b.allocate(K.width, K.height, true);
+  const SE3 T_w_a = src->poses()[i], T_w_b = T_w_a * delta;
+  renderer.render(T_w_a, a.color.view(), a.depth.view(), a.labels.view());
+  renderer.render(T_w_b, b.color.view(), b.depth.view(), b.labels.view());
+  return make_pair(K, a, b, T_w_a, T_w_b);
+}
+
+TrackResult run(Pair& p, const TrackerOptions& o = {}, const SE3& guess = SE3()) {
+  Tracker t = make_tracker(p.K, o);
+  TrackResult r;
+  EXPECT_TRUE(t.track(pyramid_view(p.ref), pyramid_view(p.cur), guess, &r).ok());
+  return r;
+}
+
+void report(const char* name, const Pair& p, const TrackResult& r) {
+  const PoseError e = pose_error(r.T_ref_cur, p.truth);
+  std::printf("[ tracker ] %-22s motion %.1f mm %.2f deg -> error %.3f mm %.4f deg | icp rms %.2f mm, "
+              "inliers %lld (%.2f), rgb %lld rms %.1f, cond %.3g, iters %d%s%s\n",
+              name, p.truth.translation().norm() * 1e3, p.truth.angle() * kRadToDeg, e.t_m * 1e3, e.r_deg,
+              r.icp_rms_m * 1e3, static_cast<long long>(r.icp_inliers), r.inlier_fraction,
+              static_cast<long long>(r.rgb_inliers), r.rgb_rms_grey, r.condition, r.iterations,
+              r.lost ? " LOST: " : "", r.lost ? track_lost_reason_name(r.reason) : "");
+}
+
+void expect_tracked(const char* name, Pair& p, const TrackResult& r, double max_t_m, double max_r_deg) {
+  report(name, p, r);
+  const PoseError e = pose_error(r.T_ref_cur, p.truth);
+  EXPECT_FALSE(r.lost) << name << ": " << track_lost_reason_name(r.reason);
+  EXPECT_LT(e.t_m, max_t_m) << name;
+  EXPECT_LT(e.r_deg, max_r_deg) << name;
+}
+
+const char* kOfficeClean = "synthetic:office?noise=0&frames=30&size=320x240";
+const char* kOfficeNoisy = "synthetic:office?noise=1&frames=30&size=320x240";
+
+TEST(Tracker, OptionsValidateAndDescribe) {
+  EXPECT_TRUE(TrackerOptions{}.validate().ok());
+  TrackerOptions o;
+  o.icp_weight = 0;
+  o.rgb_weight = 0;
+  EXPECT_FALSE(o.validate().ok());
+  o = {};
+  o.iterations[1] = -1;
+  EXPECT_FALSE(o.validate().ok());
+  o = {};
+  o.icp_sigma_m = 0;
+  EXPECT_FALSE(o.validate().ok());
+  EXPECT_NE(TrackerOptions{}.describe().find("icp_max_distance_m 0.1 m"), std::string::npos);
+  const Intrinsics K = Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(320, 240);
+  EXPECT_FALSE(Tracker::create(K, 0).ok());
+  EXPECT_FALSE(Tracker::create(K, 7).ok());
+  EXPECT_FALSE(Tracker::create(Intrinsics{}, 3).ok());
+  EXPECT_TRUE(Tracker::create(K, 3).ok());
+}
+
+TEST(Tracker, RejectsMismatchedPyramids) {
+  const Intrinsics K = Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(320, 240);
+  const Intrinsics K2 = Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(160, 120);
+  Preprocessor a = make_pre(K), b = make_pre(K2);
+  Tracker t = make_tracker(K);
+  TrackResult r;
+  EXPECT_FALSE(t.track(pyramid_view(a), pyramid_view(b), SE3(), &r).ok());
+  EXPECT_FALSE(t.track(pyramid_view(a), pyramid_view(a), SE3(), nullptr).ok());
+}
+
+TEST(Tracker, KnownMotionNoiseOff) {
+  for (int gap : {1, 3}) {
+    auto p = synth_pair(kOfficeClean, 10, 10 + gap);
+    const TrackResult r = run(*p);
+    expect_tracked(gap == 1 ? "clean gap 1" : "clean gap 3", *p, r, 0.002, 0.1);
+  }
+}
+
+TEST(Tracker, KnownMotionNoiseOn) {
+  for (int gap : {1, 3}) {
+    auto p = synth_pair(kOfficeNoisy, 10, 10 + gap);
+    const TrackResult r = run(*p);
+    expect_tracked(gap == 1 ? "noisy gap 1" : "noisy gap 3", *p, r, 0.005, 0.3);
+  }
+}
+
+TEST(Tracker, LivingRoomNoisy) {
+  auto p = synth_pair("synthetic:living_room?noise=1&frames=30&size=320x240", 5, 7);
+  expect_tracked("living room noisy", *p, run(*p), 0.005, 0.3);
+}
+
+TEST(Tracker, PureRotation) {
+  const SE3 delta = SE3::exp((Vector6d() << 0, 0, 0, 0.02, -0.03, 0.01).finished());  // ~2.1 deg
+  auto p = synth_pair_at(kOfficeClean, 5, delta);
+  expect_tracked("pure rotation", *p, run(*p), 0.002, 0.1);
+}
+
+TEST(Tracker, LargerMotionConvergesThroughCoarseLevels) {
+  // ~5 cm and ~3 deg between the frames, identity guess.
+  const SE3 delta = SE3::exp((Vector6d() << 0.03, -0.025, 0.03, 0.03, 0.035, -0.02).finished());
+  auto p = synth_pair_at(kOfficeClean, 15, delta);
+  expect_tracked("5 cm / 3 deg", *p, run(*p), 0.003, 0.15);
+  // Level 0 alone (no coarse levels) is the weaker baseline; only printed.
+  TrackerOptions fine_only;
+  fine_only.iterations = {{19, 0, 0, 0, 0, 0}};
+  report("5 cm / 3 deg, level 0", *p, run(*p, fine_only));
+}
+
+TEST(Tracker, IcpOnlyRgbOnlyAndJointConverge) {
+  const SE3 delta = SE3::exp((Vector6d() << 0.01, 0.008, -0.012, 0.01, -0.008, 0.012).finished());
+  auto p = synth_pair_at(kOfficeClean, 20, delta);
+  TrackerOptions icp_only;
+  icp_only.rgb_weight = 0;
+  const TrackResult ri = run(*p, icp_only);
+  expect_tracked("ICP only", *p, ri, 0.003, 0.15);
+  EXPECT_EQ(ri.rgb_inliers, 0);
+  TrackerOptions rgb_only;
+  rgb_only.icp_weight = 0;
+  const TrackResult rr = run(*p, rgb_only);
+  // RGB alone is less accurate here: the noise-free renders are not photo-consistent between views
+  // (no anti-aliasing; RMS 10.5 grey levels at the true pose), and the photometric cost's minimum is
+  // ~6 mm from the truth (measured: starting at the truth it drifts there and the cost decreases).
+  expect_tracked("RGB only", *p, rr, 0.01, 0.3);
+  EXPECT_EQ(rr.icp_inliers, 0);
+  expect_tracked("joint", *p, run(*p), 0.003, 0.15);
+}
+
+TEST(Tracker, LostOnAnotherRoomAndOnBlankDepth) {
+  auto office = open_synth(kOfficeNoisy);
+  auto kitchen = open_synth("synthetic:kitchen?noise=1&frames=30&size=320x240");
+  const Intrinsics K = office->info().intrinsics;
+  Frame a, b;
+  a.allocate(K.width, K.height, true);
+  b.allocate(K.width, K.height, true);
+  ASSERT_TRUE(office->render(10, a).ok());
+  ASSERT_TRUE(kitchen->render(10, b).ok());
+  auto p = make_pair(K, a, b, SE3(), SE3());
+  const TrackResult r = run(*p);
+  report("other room", *p, r);
+  EXPECT_TRUE(r.lost);
+
+  // Blank depth: nothing valid in the current frame.
+  b.depth.fill(0.0f);
+  auto q = make_pair(K, a, b, SE3(), SE3());
+  const TrackResult rb = run(*q);
+  EXPECT_TRUE(rb.lost);
+  EXPECT_EQ(rb.reason, TrackLostReason::kNoData);
+  EXPECT_EQ(rb.valid_current, 0);
+
+  // A frame tracked against itself is not lost.
+  auto s = make_pair(K, a, a, SE3(), SE3());
+  const TrackResult rs = run(*s);
+  EXPECT_FALSE(rs.lost) << track_lost_reason_name(rs.reason);
+  EXPECT_LT(pose_error(rs.T_ref_cur, SE3()).t_m, 1e-4);
+}
+
+TEST(Tracker, SevenScenesFrames0And5) {
+  EF_SKIP_WITHOUT_DATASET(dir, "7scenes-redkitchen");
+  auto src = open_source("7scenes:" + dir.string());
+  ASSERT_TRUE(src.ok()) << to_string(src.error());
+  const Intrinsics K = (*src)->info().intrinsics.scaled_to(320, 240);
+  Frame full, f0, f5;
+  f0.allocate(320, 240, false);
+  f5.allocate(320, 240, false);
+  for (int i = 0; i <= 5; ++i) {
+    auto got = (*src)->next(full);
+    ASSERT_TRUE(got.ok() && *got);
+    if (i == 0) resample_frame(full, f0);
+    if (i == 5) resample_frame(full, f5);
+  }
+  ASSERT_TRUE(f0.has_pose && f5.has_pose);
+  auto p = make_pair(K, f0, f5, f0.T_wc, f5.T_wc);
+  expect_tracked("7-Scenes 0 -> 5", *p, run(*p), 0.01, 1.0);
+  TrackerOptions icp_only;
+  icp_only.rgb_weight = 0;
+  report("7-Scenes 0 -> 5 ICP", *p, run(*p, icp_only));
+}
+
+TEST(Tracker, PlaneIsIllConditionedForIcpAlone) {
+  // A single tilted plane constrains only 3 of the 6 degrees of freedom geometrically: ICP alone must
+  // report it ill-conditioned (the caller must not fuse); a textured plane lets RGB fill in the rest.
+  const Intrinsics K = ef::test::kinect_320x240();
+  Frame a;
+  ef::test::render_plane(a, K, 1.5, 20, 10);
+  for (int y = 0; y < K.height; ++y)
+    for (int x = 0; x < K.width; ++x)
+      a.color(x, y) = Rgb8{static_cast<uint8_t>(128 + 100 * std::sin(x * 0.2) * std::cos(y * 0.15)),
+                           static_cast<uint8_t>(128 + 80 * std::cos(x * 0.11 + y * 0.07)), 90};
+  auto p = make_pair(K, a, a, SE3(), SE3());
+  TrackerOptions icp_only;
+  icp_only.rgb_weight = 0;
+  const TrackResult ri = run(*p, icp_only);
+  report("plane, ICP only", *p, ri);
+  EXPECT_TRUE(ri.lost);
+  EXPECT_EQ(ri.reason, TrackLostReason::kIllConditioned);
+  const TrackResult rj = run(*p);
+  report("textured plane, joint", *p, rj);
+  EXPECT_LT(rj.condition, ri.condition);
+}
+
+// Frame-to-frame over the first 30 frames of 7-Scenes: every step against the reference poses, and the
+// time per track() call.
+TEST(Tracker, SevenScenesFrameToFrame) {
+  EF_SKIP_WITHOUT_DATASET(dir, "7scenes-redkitchen");
+  auto src = open_source("7scenes:" + dir.string());
+  ASSERT_TRUE(src.ok()) << to_string(src.error());
+  const Intrinsics K = (*src)->info().intrinsics.scaled_to(320, 240);
+  Preprocessor pre[2] = {make_pre(K), make_pre(K)};
+  Tracker tracker = make_tracker(K);
+  Frame full, work;
+  work.allocate(320, 240, false);
+  SE3 prev_pose;
+  double worst_t = 0, worst_r = 0, sum_t = 0, ms = 0;
+  int steps = 0, lost = 0;
+  for (int i = 0; i < 30; ++i) {
+    auto got = (*src)->next(full);
+    ASSERT_TRUE(got.ok() && *got);
+    resample_frame(full, work);
+    Preprocessor& cur = pre[i % 2];
+    ASSERT_TRUE(cur.process(work).ok());
+    if (i > 0) {
+      TrackResult r;
+      const auto t0 = std::chrono::steady_clock::now();
+      ASSERT_TRUE(tracker.track(pyramid_view(pre[(i + 1) % 2]), pyramid_view(cur), SE3(), &r).ok());
+      ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      const PoseError e = pose_error(r.T_ref_cur, prev_pose.inverse() * work.T_wc);
+      worst_t = std::max(worst_t, e.t_m);
+      worst_r = std::max(worst_r, e.r_deg);
+      sum_t += e.t_m;
+      lost += r.lost;
+      ++steps;
+    }
+    prev_pose = work.T_wc;
+  }
+  std::printf("[ tracker ] 7-Scenes frame-to-frame, %d steps: mean %.2f mm, worst %.2f mm %.3f deg, lost %d, "
+              "%.1f ms per track()\n",
+              steps, sum_t / steps * 1e3, worst_t * 1e3, worst_r, lost, ms / steps);
+  EXPECT_EQ(lost, 0);
+  EXPECT_LT(worst_t, 0.01);
+  EXPECT_LT(worst_r, 1.0);
+}
+
+}  // namespace
+}  // namespace ef::slam
