@@ -1,5 +1,5 @@
-// `edgefusion run`: map a source. At this stage (no tracker yet) it replays the source at the
-// working resolution and writes the source's reference trajectory and the run statistics.
+// `edgefusion run`: map a source. Replays it at the working resolution through the surfel SLAM
+// (slam/surfel_slam.h) and writes the estimated trajectory, the surfel map and the run statistics.
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -10,10 +10,12 @@
 #include "core/frame.h"
 #include "core/stage_stats.h"
 #include "io/frame_resample.h"
+#include "io/ply_writer.h"
 #include "io/stats_json.h"
 #include "io/trajectory_io.h"
 #include "progress.h"
 #include "run_config.h"
+#include "slam/surfel_slam.h"
 #include "sources/open_source.h"
 #include "synth/synthetic_source.h"
 
@@ -24,7 +26,9 @@ namespace {
 const std::vector<OptionSpec>& run_options() {
   static const std::vector<OptionSpec> specs = {
       {"--source", "URI", "frame source; default synthetic: (see below)"},
-      {"--config", "FILE", "configuration file (key: value lines; keys source, resolution, frames, out, progress)"},
+      {"--config", "FILE",
+       "configuration file (key: value lines; keys source, resolution, frames, out, progress, map, "
+       "surfel_capacity, icp_weight, rgb_weight, depth_cutoff_m)"},
       {"--resolution", "WxH", "working resolution for tracking and label fusion, pixels; default 320x240"},
       {"--frames", "N", "process at most N frames; default all the source has"},
       {"--out", "DIR", "output folder, created if missing; required here or in the configuration"},
@@ -37,17 +41,37 @@ std::string run_help() {
   std::string rooms;
   for (const auto& r : synthetic_room_names()) rooms += (rooms.empty() ? "" : ", ") + r;
   return format_help("edgefusion run --source URI [--config FILE] [--resolution 320x240] [--frames N] --out DIR",
-                     "Maps a source and writes into DIR: trajectory.txt (TUM format, camera to world), map.ply\n"
-                     "(once a map exists) and stats.json (frames, seconds, fps, per-stage median/p95 ms,\n"
-                     "counters). Until the tracker lands, the trajectory is the source's reference poses.\n\n"
+                     "Maps a source and writes into DIR:\n"
+                     "  trajectory.txt  estimated camera-to-world poses (TUM format), one per input frame with\n"
+                     "                  the source's timestamps; a frame whose tracking was lost keeps the last\n"
+                     "                  good pose and is preceded by a line '# lost <timestamp> <reason>'\n"
+                     "  map.ply         the surfel map (binary PLY: position, normal, colour, radius, confidence)\n"
+                     "  stats.json      frames, seconds, fps, per-stage median/p95 ms, counters (lost frames,\n"
+                     "                  surfels created / removed / evicted / refused by the full pool)\n"
+                     "The first frame defines the world frame (identity pose).\n\n"
                      "Sources: " + std::string(source_uri_help()) + "\nBuilt-in rooms: " + rooms,
                      run_options());
 }
 
 // Counters written to stats.json, registered once at start-up.
 struct RunCounters {
-  int frames, frames_with_pose, frames_with_labels, valid_depth_pixels, depth_pixels;
+  int frames, frames_with_pose, frames_with_labels, lost_frames, fused_frames, surfels_created, surfels_removed,
+      surfels_evicted, surfels_refused;
 };
+
+// Stage ids of the SLAM steps in StageStats.
+struct SlamStages {
+  int preprocess, track, fuse, predict;
+};
+
+slam::SurfelSlamOptions slam_options(const RunConfig& config) {
+  slam::SurfelSlamOptions o;
+  o.pool.capacity = config.surfel_capacity;
+  o.tracker.icp_weight = config.icp_weight;
+  o.tracker.rgb_weight = config.rgb_weight;
+  o.preprocess.depth_cutoff_m = config.depth_cutoff_m;
+  return o;
+}
 
 }  // namespace
 
@@ -85,6 +109,7 @@ int cmd_run(int argc, char** argv) {
     return report_error(kCmd, error(ErrorCode::kIoError, "cannot create output folder '" + config.out_dir +
                                                              "': " + ec.message()), 1);
   const std::string trajectory_path = (std::filesystem::path(config.out_dir) / "trajectory.txt").string();
+  const std::string map_path = (std::filesystem::path(config.out_dir) / "map.ply").string();
   const std::string stats_path = (std::filesystem::path(config.out_dir) / "stats.json").string();
 
   // Everything sized once, before the first frame.
@@ -95,34 +120,44 @@ int cmd_run(int argc, char** argv) {
   int64_t expected = info.frame_count;
   if (config.max_frames > 0 && (expected < 0 || config.max_frames < expected)) expected = config.max_frames;
 
+  auto slam_or = slam::SurfelSlam::create(working_k, slam_options(config));
+  if (!slam_or.ok()) return report_error(kCmd, slam_or.error(), 2);
+  slam::SurfelSlam& slam = *slam_or;
+
   StageStats stats;
   const int st_source = stats.add_stage("source");
   const int st_resample = stats.add_stage("resample");
+  const SlamStages st{stats.add_stage("preprocess"), stats.add_stage("track"), stats.add_stage("fuse"),
+                      stats.add_stage("predict")};
+  const int st_slam = stats.add_stage("slam_total");
   const int st_output = stats.add_stage("output");
-  RunCounters c{stats.add_counter("frames"), stats.add_counter("frames_with_pose"),
-                stats.add_counter("frames_with_labels"), stats.add_counter("valid_depth_pixels"),
-                stats.add_counter("depth_pixels")};
+  const RunCounters c{stats.add_counter("frames"),          stats.add_counter("frames_with_pose"),
+                      stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
+                      stats.add_counter("fused_frames"),    stats.add_counter("surfels_created"),
+                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
+                      stats.add_counter("surfels_refused")};
 
   TumTrajectoryWriter trajectory;
-  if (info.has_pose) {
-    if (Status s = trajectory.open(trajectory_path); !s.ok()) return report_error(kCmd, s.error(), 1);
-  }
+  if (Status s = trajectory.open(trajectory_path); !s.ok()) return report_error(kCmd, s.error(), 1);
 
-  std::fprintf(stderr, "%s: source %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f)\n", kCmd,
-               config.source.c_str(), info.intrinsics.width, info.intrinsics.height,
+  std::fprintf(stderr, "%s: source %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f), pool %lld surfels (%.0f MB)\n",
+               kCmd, config.source.c_str(), info.intrinsics.width, info.intrinsics.height,
                info.frame_count >= 0 ? std::to_string(info.frame_count).c_str() : "unknown", config.width,
-               config.height, working_k.fx);
+               config.height, working_k.fx, static_cast<long long>(config.surfel_capacity),
+               static_cast<double>(slam.pool_bytes()) / 1e6);
 
   Progress progress("run", expected, config.progress);
   const auto start = std::chrono::steady_clock::now();
   int64_t frames = 0;
   int exit_code = 0;
+  slam::SlamFrameResult result;
+  char line[96];
   while (config.max_frames < 0 || frames < config.max_frames) {
     ScopedStageTimer t_source(stats, st_source);
     auto got = source.next(input);
     if (!got.ok() || !*got) t_source.cancel();  // only delivered frames count in the stage's timing
     if (!got.ok()) {
-      // Keep what was already accepted: the trajectory and the statistics so far are written below.
+      // Keep what was already accepted: the trajectory, map and statistics so far are written below.
       report_error(kCmd, got.error(), 1);
       exit_code = 1;
       break;
@@ -134,50 +169,83 @@ int cmd_run(int argc, char** argv) {
       ScopedStageTimer t(stats, st_resample);
       resample_frame(input, working);
     }
+    if (Status s = slam.process(working, &result); !s.ok()) {
+      report_error(kCmd, s.error(), 1);
+      exit_code = 1;
+      break;
+    }
+    stats.record_ms(st.preprocess, result.timings.preprocess_ms);
+    if (frames > 0) stats.record_ms(st.track, result.timings.track_ms);  // frame 0 has nothing to track
+    if (result.fused) stats.record_ms(st.fuse, result.timings.fuse_ms);
+    stats.record_ms(st.predict, result.timings.predict_ms);
+    stats.record_ms(st_slam, result.timings.total_ms);
     {
       ScopedStageTimer t(stats, st_output);
-      if (working.has_pose && trajectory.is_open()) {
-        if (Status s = trajectory.write(working.timestamp, working.T_wc); !s.ok()) {
-          report_error(kCmd, s.error(), 1);
-          exit_code = 1;
-          break;
-        }
+      Status s;
+      if (result.lost) {
+        std::snprintf(line, sizeof line, "lost %.6f %s", working.timestamp,
+                      slam::track_lost_reason_name(result.track.reason));
+        s = trajectory.write_comment(line);
+      }
+      if (s.ok()) s = trajectory.write(working.timestamp, result.T_world_cam);
+      if (!s.ok()) {
+        report_error(kCmd, s.error(), 1);
+        exit_code = 1;
+        break;
       }
     }
-    uint64_t valid = 0;
-    for (std::size_t i = 0; i < working.depth.size(); ++i) valid += working.depth.data()[i] > 0;
     stats.increment(c.frames);
     stats.increment(c.frames_with_pose, working.has_pose ? 1 : 0);
     stats.increment(c.frames_with_labels, working.has_labels ? 1 : 0);
-    stats.increment(c.valid_depth_pixels, valid);
-    stats.increment(c.depth_pixels, working.depth.size());
+    stats.increment(c.lost_frames, result.lost ? 1 : 0);
+    stats.increment(c.fused_frames, result.fused ? 1 : 0);
     ++frames;
-    progress.update(frames);
+    std::snprintf(line, sizeof line, "%s, %lld surfels", result.lost ? "LOST" : "tracking",
+                  static_cast<long long>(slam.pool().size()));
+    progress.update(frames, line);
   }
   progress.finish(frames);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  bool wrote_trajectory = false;
-  if (trajectory.is_open()) {
-    if (Status s = trajectory.close(); !s.ok()) {
+  const slam::SurfelPoolCounters& pc = slam.pool().counters();
+  stats.set_counter(c.surfels_created, pc.created);
+  stats.set_counter(c.surfels_removed, pc.removed);
+  stats.set_counter(c.surfels_evicted, pc.evicted);
+  stats.set_counter(c.surfels_refused, pc.refused);
+
+  bool wrote_trajectory = false, wrote_map = false;
+  if (Status s = trajectory.close(); !s.ok()) {
+    report_error(kCmd, s.error(), 1);
+    exit_code = 1;
+  } else {
+    wrote_trajectory = true;
+  }
+  if (config.write_map) {
+    const std::string comment = "edgefusion map of " + config.source + ", " + std::to_string(frames) + " frames";
+    if (Status s = write_surfel_ply(map_path, slam::surfel_cloud_view(slam.pool()), comment); !s.ok()) {
       report_error(kCmd, s.error(), 1);
       exit_code = 1;
     } else {
-      wrote_trajectory = true;
+      wrote_map = true;
     }
   }
-  const std::vector<StatsExtraField> extra = {{"width", static_cast<double>(config.width)},
-                                              {"height", static_cast<double>(config.height)}};
+  const std::vector<StatsExtraField> extra = {
+      {"width", static_cast<double>(config.width)},
+      {"height", static_cast<double>(config.height)},
+      {"surfels", static_cast<double>(slam.pool().size())},
+      {"surfel_capacity", static_cast<double>(slam.pool().capacity())},
+      {"surfel_pool_bytes", static_cast<double>(slam.pool_bytes())},
+      {"bytes_per_surfel", static_cast<double>(slam::SurfelPool::kBytesPerSurfel)}};
   if (Status s = write_stats_json(stats_path, stats, static_cast<uint64_t>(frames), seconds, extra); !s.ok()) {
     report_error(kCmd, s.error(), 1);
     exit_code = 1;
   }
 
-  std::printf("frames %lld in %.2f s (%.1f fps)\n", static_cast<long long>(frames), seconds,
-              seconds > 0 ? static_cast<double>(frames) / seconds : 0.0);
+  std::printf("frames %lld in %.2f s (%.1f fps), lost %lld, surfels %lld\n", static_cast<long long>(frames),
+              seconds, seconds > 0 ? static_cast<double>(frames) / seconds : 0.0,
+              static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.pool().size()));
   if (wrote_trajectory) std::printf("trajectory: %s\n", trajectory_path.c_str());
-  else std::printf("trajectory: none (the source has no poses and no tracker is built yet)\n");
-  std::printf("map: none yet (surfel fusion lands with the SLAM issue)\n");
+  if (wrote_map) std::printf("map: %s\n", map_path.c_str());
   std::printf("stats: %s\n", stats_path.c_str());
   return exit_code;
 }

@@ -1,6 +1,7 @@
 #include "run_config.h"
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -30,7 +31,12 @@ std::string RunConfig::describe() const {
     << "resolution: " << width << "x" << height << "   # working resolution, pixels; default 320x240\n"
     << "frames: " << max_frames << "           # frames to process, -1 = all; default -1\n"
     << "out: " << out_dir << "          # output folder; no default\n"
-    << "progress: " << (progress ? "true" : "false") << "      # progress line on stderr; default true\n";
+    << "progress: " << (progress ? "true" : "false") << "      # progress line on stderr; default true\n"
+    << "surfel_capacity: " << surfel_capacity << "  # surfels in the map's pool (fixed at start-up); default 1000000\n"
+    << "icp_weight: " << icp_weight << "          # tracking: weight of the ICP term, >= 0; default 10\n"
+    << "rgb_weight: " << rgb_weight << "           # tracking: weight of the photometric term, >= 0; default 1\n"
+    << "depth_cutoff_m: " << depth_cutoff_m << "       # metres; depths beyond are ignored; default 8\n"
+    << "map: " << (write_map ? "true" : "false") << "           # write map.ply; default true\n";
   return o.str();
 }
 
@@ -57,13 +63,34 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
   } else if (key == "out") {
     if (value.empty()) return bad("is empty (expected a folder)");
     config.out_dir = value;
-  } else if (key == "progress") {
-    if (value == "true" || value == "yes" || value == "on") config.progress = true;
-    else if (value == "false" || value == "no" || value == "off") config.progress = false;
+  } else if (key == "progress" || key == "map") {
+    bool v = false;
+    if (value == "true" || value == "yes" || value == "on") v = true;
+    else if (value == "false" || value == "no" || value == "off") v = false;
     else return bad("is not true or false");
+    (key == "map" ? config.write_map : config.progress) = v;
+  } else if (key == "surfel_capacity") {
+    errno = 0;
+    char* end = nullptr;
+    const long long v = std::strtoll(value.c_str(), &end, 10);
+    if (value.empty() || *end != '\0' || errno == ERANGE || v < 1 || v > 100'000'000)
+      return bad("is not an integer in 1..100000000");
+    config.surfel_capacity = v;
+  } else if (key == "icp_weight" || key == "rgb_weight" || key == "depth_cutoff_m") {
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || v < 0)
+      return bad("is not a finite number >= 0");
+    if (key == "depth_cutoff_m" && v <= 0) return bad("must be > 0 (metres)");
+    if (key == "icp_weight") config.icp_weight = v;
+    else if (key == "rgb_weight") config.rgb_weight = v;
+    else config.depth_cutoff_m = static_cast<float>(v);
   } else {
     return error(ErrorCode::kInvalidArgument,
-                 where + ": unknown key '" + key + "' (known: source, resolution, frames, out, progress)");
+                 where + ": unknown key '" + key +
+                     "' (known: source, resolution, frames, out, progress, map, surfel_capacity, icp_weight, "
+                     "rgb_weight, depth_cutoff_m)");
   }
   return Status::success();
 }

@@ -20,6 +20,12 @@ struct RunConfig {
   int64_t max_frames = -1;            // frames to process; -1 = all the source has
   std::string out_dir;                // output folder; required
   bool progress = true;               // progress line on stderr
+  // Mapping (slam/surfel_slam.h). Defaults are ElasticFusion's / SemanticFusion's.
+  int64_t surfel_capacity = 1'000'000;  // surfels in the pool, allocated at start-up
+  double icp_weight = 10.0;             // tracking: relative weight of the ICP term (>= 0)
+  double rgb_weight = 1.0;              // tracking: relative weight of the photometric term (>= 0)
+  float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres
+  bool write_map = true;                // write map.ply at the end of the run
 
   // Multi-line "key: value  # unit, default" listing, as a configuration file would hold it.
   std::string describe() const;

@@ -107,6 +107,12 @@ Status TumTrajectoryWriter::write(double timestamp, const SE3& T_wc) {
   return Status::success();
 }
 
+Status TumTrajectoryWriter::write_comment(const char* text) {
+  if (!file_) return error(ErrorCode::kInvalidArgument, "trajectory writer: write_comment() before open()");
+  if (std::fprintf(file_, "# %s\n", text) < 0) return error(ErrorCode::kIoError, path_ + ": write failed");
+  return Status::success();
+}
+
 Status TumTrajectoryWriter::flush() {
   if (!file_) return Status::success();
   if (std::fflush(file_) != 0) return error(ErrorCode::kIoError, path_ + ": flush failed: " + std::strerror(errno));

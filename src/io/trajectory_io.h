@@ -41,6 +41,9 @@ class TumTrajectoryWriter {
   Status open(const std::string& path);
   // Appends one line. Error if not open or the write fails.
   Status write(double timestamp, const SE3& T_wc);
+  // Appends "# <text>" as its own line (TUM readers skip it). `text` must be one line. Used by
+  // `edgefusion run` to mark a lost frame just before its pose line: "# lost <timestamp> <reason>".
+  Status write_comment(const char* text);
   // Flushes the stdio buffer to the OS (the file stays open).
   Status flush();
   // Flushes and closes; reports a failed final write. Safe to call twice.

@@ -34,17 +34,36 @@
 // (g^T, (x cross g)^T). Each Gauss-Newton step solves (J^T W J) xi = -J^T W r (6x6, Eigen LDLT).
 //
 // Pyramid: from the coarsest level to level 0, options.iterations[l] steps on level l (ElasticFusion:
-// 10 / 5 / 4 fine to coarse). The rows (Jacobian, residual, weight) are written into structure-of-
-// arrays buffers allocated by Tracker::create() and reduced by kernels::reduce_normal_equations.
+// 10 / 5 / 4 fine to coarse). The rows (Jacobian, residual, weight) of a few image rows at a time
+// (about 2048 pixels, so they stay in the L1/L2 cache) are written by kernels::track_rows (SIMD, the
+// same bits on every ISA) into a small structure-of-arrays tile and reduced by
+// kernels::reduce_normal_equations; the tiles' sums are added in double.
 //
-// Quality: after the last step the residuals are evaluated once more at the final pose on level 0;
-// TrackResult reports the ICP RMS, inliers, the conditioning of the solved system, and `lost` when
-// a threshold of TrackerOptions is crossed. A lost frame must not be fused.
+// SO(3) pre-alignment (ElasticFusion's default; options.so3_prealign): before the pyramid, a
+// rotation-only photometric alignment on a small image (by default one more halving of the coarsest
+// level, made here: 40x30 at 320x240) brings the rotation of the guess into the basin of the joint
+// cost. For a pure rotation R the reference pixel of current pixel u is pi(R K^-1 u), whatever the
+// depth, so the residual I_ref(pi(R K^-1 u)) - I_cur(u) needs no depth and every pixel counts (also
+// those without depth); the rows are the photometric rows above with p = K^-1 u (a ray) and t = 0,
+// and the step solves the 3x3 rotation block (Huber-weighted Gauss-Newton, R <- exp(w) R). The
+// translation of the guess is kept. The result replaces the guess's rotation only if its mean robust
+// photometric cost (sum w r^2 / pixels with a row) is below that of the guess. Measured on noise-free
+// renders with an identity guess: the joint tracker alone ends in a wrong minimum for some rotations
+// of 4-6 degrees and for every one tried of 8 degrees and more; with the pre-alignment, rotations up
+// to 15 degrees (three axes tried) converge. On 7-Scenes it changes nothing for consecutive frames and
+// keeps frames 10 and 15 apart tracked (tests/slam/test_tracker.cpp, bench/slam_track.cpp).
 //
-// Not yet: ElasticFusion's SO(3) photometric pre-alignment (the caller's guess must be within the
-// basin of the coarse level: a few centimetres / degrees), and multi-threaded row evaluation.
+// Quality: TrackResult reports, on level 0 at the final pose, the ICP RMS, inliers, the conditioning
+// of the solved system, and `lost` when a threshold of TrackerOptions is crossed. When the last
+// level-0 step was below the stop thresholds (converged), the linearisation that computed that step
+// supplies these figures (its pose differs from the final one by less than stop_translation_m /
+// stop_rotation_rad); otherwise the residuals are evaluated once more at the final pose. A lost frame
+// must not be fused.
 //
-// Memory: track() performs no heap allocation. Threads: one Tracker per thread.
+// Not yet: multi-threaded row evaluation.
+//
+// Memory: track() performs no heap allocation; a Tracker holds the row tile (2 x 8 floats x ~2000
+// pixels = 125 KiB at 320x240) and the SO(3) level (~34 KB at 40x30). Threads: one Tracker per thread.
 #pragma once
 
 #include <array>
@@ -93,13 +112,41 @@ struct TrackerOptions {
   // Gauss-Newton steps per level, index = level (0 = finest). ElasticFusion: 10 / 5 / 4 fine to
   // coarse, so the coarsest of 3 levels gets 4. Each 0..100; levels beyond the pyramid are ignored.
   std::array<int, kTrackerMaxLevels> iterations{{10, 5, 4, 4, 4, 4}};
-  // A level stops early when the step is below both (metres, radians).
-  double stop_translation_m = 1e-5;
-  double stop_rotation_rad = 1e-5;
+  // A level stops early when the step is below both (metres, radians). 0.1 mm / 0.006 deg is 20x
+  // below the frame-to-frame error on real data: on 7-Scenes (200 pairs, gaps of 1, 3 and 6 frames)
+  // 1e-4 gives the same errors as 1e-5 (medians within 0.01 mm) with a third fewer steps.
+  double stop_translation_m = 1e-4;
+  double stop_rotation_rad = 1e-4;
+
+  // --- SO(3) pre-alignment (see above; ElasticFusion: on; here off by default) ---
+  // Runs only when both frames have intensity on that level. Off by default: it widens the basin
+  // of frame-to-frame tracking for large rotations (tests/slam/test_tracker.cpp), but in the
+  // frame-to-model pipeline on the default synthetic sequence (living room, 300-frame loop) the
+  // rotation it found on the hole-filled predicted image sent tracking into a wrong minimum at
+  // frame 27 and every later frame was lost (ATE 1.46 m against 5.7 mm without it), while on
+  // 7-Scenes it changed nothing (400 frames: 3.95 against 3.90 cm).
+  bool so3_prealign = false;
+  // Gauss-Newton steps at most (0..100); stops early when the rotation step is below
+  // stop_rotation_rad. Small rotations take ~5 steps; 20 lets ~15 degrees converge on 40x30.
+  int so3_iterations = 20;
+  // Pyramid level it runs on: 0..levels-1 are the frames' levels; `levels` is one more halving of
+  // the coarsest level that the tracker makes itself (intensity 4x4 binomial and Sobel gradients,
+  // as the preprocessor). -1 (default) = that extra level when it is at least 16x12 pixels (40x30
+  // at 320x240 with 3 levels), else the coarsest.
+  int so3_level = -1;
 
   // --- ICP (point-to-plane, projective association) ---
   // Relative weight of the ICP term (dimensionless, >= 0; 0 = RGB only). ElasticFusion ICP:RGB = 10.
   double icp_weight = 10.0;
+  // Weight each ICP row by (sigma(z_ref) / sigma(z))^2, capped at 4, with z the current point's
+  // depth and sigma(z) = 0.0012 + 0.0019 (z - 0.4)^2 metres, the axial noise of a structured-light
+  // depth camera (Nguyen, Izadi, Lovell, 3DIMPVT 2012), z_ref = icp_depth_weight_ref_m. Far points
+  // are noisier and quantised into coarser disparity steps that stay fixed in the camera, which
+  // biases ICP towards "no motion"; down-weighting them cut the drift on 7-Scenes (see
+  // docs/results.md). The weights are then rescaled to a mean of 1 over the inliers, so the ICP
+  // term keeps its weight against the photometric one. false: every row weighs 1.
+  bool icp_depth_weighting = true;
+  float icp_depth_weight_ref_m = 1.0f;  // metres, > 0.4
   // Normalising scale of the point-to-plane residual, metres (> 0): typical depth noise.
   double icp_sigma_m = 0.01;
   // Association gates: point distance, metres (ElasticFusion 0.10 m), and the angle between the
@@ -172,14 +219,21 @@ struct TrackResult {
   int64_t valid_current = 0;    // current pixels with a valid vertex
   double min_eigenvalue = 0;    // of the normalised, weighted 6x6 system at the final pose
   double condition = 0;         // largest / smallest eigenvalue of it (inf if singular)
-  int iterations = 0;           // Gauss-Newton steps taken, all levels
+  int iterations = 0;           // Gauss-Newton steps taken, all levels (SO(3) steps not included)
   std::array<int, kTrackerMaxLevels> level_iterations{};
+
+  // SO(3) pre-alignment: steps taken, whether its rotation replaced the guess's, and the angle of
+  // that change (degrees; 0 when not applied).
+  int so3_iterations = 0;
+  bool so3_applied = false;
+  double so3_rotation_deg = 0;
 };
 
 class Tracker {
  public:
-  // Allocates the row buffers for pyramids whose level 0 is level0.width x level0.height (coarser
-  // levels are the halvings of Intrinsics::pyramid_level). Errors: invalid options or size.
+  // Allocates the row tiles and the SO(3) level for pyramids whose level 0 is level0.width x
+  // level0.height (coarser levels are the halvings of Intrinsics::pyramid_level). Errors: invalid
+  // options or size.
   static Result<Tracker> create(const Intrinsics& level0, int levels, const TrackerOptions& options = {});
 
   // Estimates T_ref_cur starting from `T_ref_cur_guess` (identity for frame-to-frame with no motion
@@ -194,19 +248,31 @@ class Tracker {
 
  private:
   Tracker() = default;
-  struct LevelStats {
-    int64_t icp_inliers = 0, rgb_inliers = 0, valid = 0;
+  static constexpr int kNeUpper = 28;  // kernels::kNeOutputs
+  // Sums of the reduced rows of one linearisation, and the pixel counts.
+  struct Linearisation {
+    double icp[kNeUpper] = {}, rgb[kNeUpper] = {};  // upper triangles as kernels::NormalEquations
+    int64_t valid = 0, icp_inliers = 0, rgb_inliers = 0;
   };
-  // Writes the rows of level l at pose T (into icp_rows_ / rgb_rows_), returns the counts.
-  LevelStats build_rows(const TrackerLevelView& ref, const TrackerLevelView& cur, const Eigen::Matrix3f& R,
-                        const Eigen::Vector3f& t, bool use_icp, bool use_rgb);
+  // Evaluates and reduces the rows of level l at pose (R, t). rays: use these xyz rays instead of the
+  // current vertices (the SO(3) mode: RGB only, no depth gate).
+  float weight_icp_rows_by_depth(const float* vertex, std::size_t n, float* weights) const;
+  void linearise(const TrackerLevelView& ref, const TrackerLevelView& cur, const Eigen::Matrix3f& R,
+                 const Eigen::Vector3f& t, bool use_icp, bool use_rgb, const float* rays, Linearisation* out);
+  // The SO(3) pre-alignment: returns the rotation to start from (R0 when it does not help).
+  Eigen::Matrix3d prealign_rotation(const TrackerLevelView& ref, const TrackerLevelView& cur,
+                                    const Eigen::Matrix3d& R0, TrackResult* res);
 
   TrackerOptions options_;
   Intrinsics level0_;
   int levels_ = 0;
-  std::size_t capacity_ = 0;             // rows per term: pixels of level 0
-  std::unique_ptr<float[]> icp_rows_;    // 8 x capacity_ floats, SoA (kernels/normal_equations.h)
-  std::unique_ptr<float[]> rgb_rows_;
+  int so3_level_ = 0;                     // resolved options_.so3_level (levels_ = the extra level)
+  std::size_t tile_capacity_ = 0;         // pixels per tile (whole image rows of any level)
+  std::unique_ptr<float[]> tile_;         // 2 x 8 x tile_capacity_ floats: ICP rows, then RGB rows (SoA)
+  std::unique_ptr<float[]> rays_;         // K^-1 (x, y, 1) per pixel of so3_level_, xyz, row-major
+  // The extra SO(3) level (when so3_level_ == levels_): intensities (grey levels) and the
+  // reference's gradients (grey levels per pixel of that level).
+  Image<float> so3_ref_intensity_, so3_ref_grad_x_, so3_ref_grad_y_, so3_cur_intensity_;
 };
 
 }  // namespace ef::slam

@@ -9,6 +9,7 @@
 
 #include "firmware_app/cli.h"
 #include "eval/trajectory_eval.h"
+#include "io/ply_writer.h"
 #include "io/trajectory_io.h"
 #include "test_support.h"
 
@@ -135,11 +136,20 @@ TEST(Cli, RunSyntheticWritesTrajectoryAndStats) {
   const std::string stats = read_file(dir / "out" / "stats.json");
   EXPECT_NE(stats.find("\"frames\":4"), std::string::npos) << stats;
   EXPECT_NE(stats.find("\"width\":160"), std::string::npos) << stats;
-  for (const char* key : {"\"seconds\"", "\"fps\"", "\"stages\"", "\"median_ms\"", "\"p95_ms\"", "\"counters\""})
+  for (const char* key : {"\"seconds\"", "\"fps\"", "\"stages\"", "\"median_ms\"", "\"p95_ms\"", "\"counters\"",
+                          "\"track\"", "\"fuse\"", "\"predict\"", "\"lost_frames\"", "\"surfels_refused\"",
+                          "\"surfels_evicted\"", "\"bytes_per_surfel\":60"})
     EXPECT_NE(stats.find(key), std::string::npos) << key << " missing in " << stats;
+
+  // The map: a PLY that reads back with surfels in it.
+  auto map = read_surfel_ply((dir / "out" / "map.ply").string());
+  ASSERT_TRUE(map.ok()) << to_string(map.error());
+  EXPECT_GT(map->size(), 1000u);
+  EXPECT_NE(r.out.find((dir / "out" / "map.ply").string()), std::string::npos) << r.out;
 }
 
-TEST(Cli, SevenScenesReferenceTrajectoryHasZeroAteAgainstItsPoseFiles) {
+// 30 real frames tracked and mapped: the estimate stays within a centimetre of the reference poses.
+TEST(Cli, SevenScenesTrackedTrajectoryIsCloseToTheReferencePoses) {
   EF_SKIP_WITHOUT_DATASET(data, "7scenes-redkitchen");
   const auto dir = test::scratch_dir("cli-7scenes");
   const auto r = cli({"run", "--source", "7scenes:" + data.string(), "--frames", "30", "--out", dir.string(), "--quiet"});
@@ -161,25 +171,28 @@ TEST(Cli, SevenScenesReferenceTrajectoryHasZeroAteAgainstItsPoseFiles) {
   const auto e = cli({"eval", "ate", (dir / "gt.txt").string(), (dir / "trajectory.txt").string()});
   ASSERT_EQ(e.code, 0) << e.err;
   EXPECT_EQ(metric(e.out, "pairs"), 30);
-  EXPECT_LT(metric(e.out, "ate_rmse_m"), 1e-6) << e.out;
+  EXPECT_LT(metric(e.out, "ate_rmse_m"), 0.01) << e.out;
+  EXPECT_GT(metric(e.out, "ate_rmse_m"), 0.0) << e.out;  // an estimate, not the reference copied
+  EXPECT_NE(read_file(dir / "stats.json").find("\"lost_frames\":0"), std::string::npos);
 }
 
 TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
   const auto dir = test::scratch_dir("cli-convert");
-  auto r = cli({"convert", "--source", "synthetic:office?frames=3&size=160x120", "--to", "tum:" + (dir / "tum").string(),
-                "--quiet"});
+  // Three consecutive frames of a 1000-frame loop: hand-held motion at 30 Hz.
+  auto r = cli({"convert", "--source", "synthetic:office?frames=1000&size=160x120", "--frames", "3", "--to",
+                "tum:" + (dir / "tum").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   for (const char* f : {"rgb.txt", "depth.txt", "groundtruth.txt"}) EXPECT_TRUE(std::filesystem::exists(dir / "tum" / f)) << f;
   EXPECT_TRUE(std::filesystem::is_directory(dir / "tum" / "labels"));
 
-  // The TUM folder is a source again, with the same poses.
+  // The TUM folder is a source again: tracked, its estimate agrees with the exported poses.
   r = cli({"run", "--source", "tum:" + (dir / "tum").string(), "--resolution", "160x120", "--out", (dir / "run").string(),
            "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   auto ate = evaluate_ate_files((dir / "tum" / "groundtruth.txt").string(), (dir / "run" / "trajectory.txt").string());
   ASSERT_TRUE(ate.ok()) << to_string(ate.error());
   EXPECT_EQ(ate->pairs, 3);
-  EXPECT_LT(ate->rmse_m, 1e-6);
+  EXPECT_LT(ate->rmse_m, 0.01);  // metres; 6.5 mm measured at 160x120 (noise on, a 2-frame-old map)
 
   // The exported labels evaluated against themselves: every evaluated pixel is right.
   r = cli({"eval", "labels", (dir / "tum" / "labels").string(), (dir / "tum" / "labels").string(), "--depth",
@@ -212,6 +225,9 @@ TEST(Cli, SourceErrorMidRunKeepsTheOutputsSoFar) {
   ASSERT_TRUE(traj.ok()) << to_string(traj.error());
   EXPECT_EQ(traj->poses.size(), 3u);
   EXPECT_NE(read_file(dir / "run" / "stats.json").find("\"frames\":3"), std::string::npos);
+  auto map = read_surfel_ply((dir / "run" / "map.ply").string());
+  ASSERT_TRUE(map.ok()) << to_string(map.error());
+  EXPECT_GT(map->size(), 0u);
 }
 
 }  // namespace

@@ -48,6 +48,24 @@ TEST(OutputsTrajectory, RoundTripKeepsPrecision) {
   }
 }
 
+TEST(OutputsTrajectory, CommentLinesAreSkippedByTheReader) {
+  const std::string path = (test::scratch_dir("traj_comment") / "t.txt").string();
+  TumTrajectoryWriter w;
+  EXPECT_FALSE(w.write_comment("lost 1.0 no_data").ok());  // not open yet
+  ASSERT_TRUE(w.open(path).ok());
+  ASSERT_TRUE(w.write(1.0, SE3()).ok());
+  ASSERT_TRUE(w.write_comment("lost 2.000000 too_few_inliers").ok());
+  ASSERT_TRUE(w.write(2.0, SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0))).ok());
+  ASSERT_TRUE(w.close().ok());
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(text.find("\n# lost 2.000000 too_few_inliers\n2.000000 1 0 0"), std::string::npos) << text;
+  auto t = read_tum_trajectory(path);
+  ASSERT_TRUE(t.ok()) << to_string(t.error());
+  ASSERT_EQ(t->poses.size(), 2u);
+  EXPECT_EQ(t->poses[1].T_wc.translation().x(), 1.0);
+}
+
 TEST(OutputsTrajectory, OpenFailsNamingPath) {
   TumTrajectoryWriter w;
   auto s = w.open("/nonexistent-dir/edgefusion/traj.txt");

@@ -1,0 +1,83 @@
+// track_rows for AVX2: 8 pixels per step in ymm registers, lane masks as all-ones float lanes. The
+// reference maps are read with gathers (VGATHERDPD of float pairs, VGATHERDPS of single floats); xyz
+// triples are de-interleaved with two blends and one VPERMPS per component. Separate multiply and add
+// (contraction off; the file is built with -mfma).
+#include <immintrin.h>
+
+#include "kernels/track_rows_simd.h"
+
+namespace ef::kernels {
+
+namespace {
+struct Avx2 {
+  using F = __m256;
+  using I = __m256i;
+  using M = __m256;
+  static constexpr int kWidth = 8;
+  static F set1(float x) { return _mm256_set1_ps(x); }
+  static F zero() { return _mm256_setzero_ps(); }
+  static F load(const float* p) { return _mm256_loadu_ps(p); }
+  static void store(float* p, F x) { _mm256_storeu_ps(p, x); }
+  template <int comp>
+  static F component(F a, F b, F c) {
+#define EF_P(k) tr_perm(kWidth, comp, k)
+    const I idx = _mm256_setr_epi32(EF_P(0), EF_P(1), EF_P(2), EF_P(3), EF_P(4), EF_P(5), EF_P(6), EF_P(7));
+#undef EF_P
+    constexpr int from_b = static_cast<int>(tr_mask(kWidth, comp, 1)),
+                  from_c = static_cast<int>(tr_mask(kWidth, comp, 2));
+    return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(a, b, from_b), c, from_c), idx);
+  }
+  static void load3(const float* p, F& x, F& y, F& z) {
+    const F a = load(p), b = load(p + 8), c = load(p + 16);
+    x = component<0>(a, b, c);
+    y = component<1>(a, b, c);
+    z = component<2>(a, b, c);
+  }
+  static F add(F a, F b) { return _mm256_add_ps(a, b); }
+  static F sub(F a, F b) { return _mm256_sub_ps(a, b); }
+  static F mul(F a, F b) { return _mm256_mul_ps(a, b); }
+  static F div(F a, F b) { return _mm256_div_ps(a, b); }
+  static F neg(F a) { return _mm256_xor_ps(a, _mm256_set1_ps(-0.0f)); }
+  static F abs(F a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
+  static F floor(F a) { return _mm256_floor_ps(a); }
+  static I cvtt(F a) { return _mm256_cvttps_epi32(a); }
+  static F cvt(I a) { return _mm256_cvtepi32_ps(a); }
+  static I iset1(int x) { return _mm256_set1_epi32(x); }
+  static I iadd(I a, I b) { return _mm256_add_epi32(a, b); }
+  static I imul(I a, I b) { return _mm256_mullo_epi32(a, b); }
+  static M lt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
+  static M le(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
+  static M gt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
+  static M ge(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
+  static M ne(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_NEQ_UQ); }
+  static M land(M a, M b) { return _mm256_and_ps(a, b); }
+  static M lor(M a, M b) { return _mm256_or_ps(a, b); }
+  static bool any(M m) { return _mm256_movemask_ps(m) != 0; }
+  static int count(M m) { return __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(m))); }
+  static F keep(M m, F a) { return _mm256_and_ps(m, a); }
+  static F select(M m, F a, F b) { return _mm256_blendv_ps(b, a, m); }
+  static I ikeep(M m, I a) { return _mm256_and_si256(_mm256_castps_si256(m), a); }
+  static F gather(const float* base, I idx) { return _mm256_i32gather_ps(base, idx, 4); }
+  // Two VGATHERDPD of 4 float pairs: [a0 b0 a1 b1 | a2 b2 a3 b3] and [a4 b4 .. | ..]; a SHUFPS picks
+  // the even (odd) floats per 128-bit half, a VPERMPD puts the halves in order.
+  static void gather2(const float* base, I idx, F& lo, F& hi) {
+    const double* b = reinterpret_cast<const double*>(base);
+    const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi32(-1));
+    const __m256d none = _mm256_setzero_pd();
+    const F g0 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(none, b, _mm256_castsi256_si128(idx), all, 4));
+    const F g1 = _mm256_castpd_ps(_mm256_mask_i32gather_pd(none, b, _mm256_extracti128_si256(idx, 1), all, 4));
+    lo = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, _MM_SHUFFLE(2, 0, 2, 0))),
+                                                _MM_SHUFFLE(3, 1, 2, 0)));
+    hi = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(g0, g1, _MM_SHUFFLE(3, 1, 3, 1))),
+                                                _MM_SHUFFLE(3, 1, 2, 0)));
+  }
+};
+}  // namespace
+
+void track_rows__avx2(const TrackRowsParams& params, const float* cur_vertex, const float* cur_normal,
+                      const float* cur_intensity, std::size_t n, float* icp_rows, float* rgb_rows, std::size_t stride,
+                      TrackRowsCounts* counts) {
+  track_rows_simd<Avx2>(params, cur_vertex, cur_normal, cur_intensity, n, icp_rows, rgb_rows, stride, counts);
+}
+
+}  // namespace ef::kernels

@@ -1,0 +1,83 @@
+// track_rows for SSE4.1 (x86-64 baseline): 4 pixels per step in xmm registers, lane masks as
+// all-ones float lanes, ROUNDPS for the floor, PMULLD for pixel offsets. SSE has no gather: the
+// reference maps are read with one 64-bit (float pair) or 32-bit load per lane. xyz triples are
+// de-interleaved with two blends and one shuffle per component.
+#include <smmintrin.h>
+
+#include "kernels/track_rows_simd.h"
+
+namespace ef::kernels {
+
+namespace {
+struct Sse41 {
+  using F = __m128;
+  using I = __m128i;
+  using M = __m128;
+  static constexpr int kWidth = 4;
+  static F set1(float x) { return _mm_set1_ps(x); }
+  static F zero() { return _mm_setzero_ps(); }
+  static F load(const float* p) { return _mm_loadu_ps(p); }
+  static void store(float* p, F x) { _mm_storeu_ps(p, x); }
+  template <int comp>
+  static F component(F a, F b, F c) {
+    constexpr int from_b = static_cast<int>(tr_mask(kWidth, comp, 1)),
+                  from_c = static_cast<int>(tr_mask(kWidth, comp, 2));
+    constexpr int perm = _MM_SHUFFLE(tr_perm(kWidth, comp, 3), tr_perm(kWidth, comp, 2), tr_perm(kWidth, comp, 1),
+                                     tr_perm(kWidth, comp, 0));
+    const F t = _mm_blend_ps(_mm_blend_ps(a, b, from_b), c, from_c);
+    return _mm_shuffle_ps(t, t, perm);
+  }
+  static void load3(const float* p, F& x, F& y, F& z) {
+    const F a = load(p), b = load(p + 4), c = load(p + 8);
+    x = component<0>(a, b, c);
+    y = component<1>(a, b, c);
+    z = component<2>(a, b, c);
+  }
+  static F add(F a, F b) { return _mm_add_ps(a, b); }
+  static F sub(F a, F b) { return _mm_sub_ps(a, b); }
+  static F mul(F a, F b) { return _mm_mul_ps(a, b); }
+  static F div(F a, F b) { return _mm_div_ps(a, b); }
+  static F neg(F a) { return _mm_xor_ps(a, _mm_set1_ps(-0.0f)); }
+  static F abs(F a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
+  static F floor(F a) { return _mm_floor_ps(a); }
+  static I cvtt(F a) { return _mm_cvttps_epi32(a); }
+  static F cvt(I a) { return _mm_cvtepi32_ps(a); }
+  static I iset1(int x) { return _mm_set1_epi32(x); }
+  static I iadd(I a, I b) { return _mm_add_epi32(a, b); }
+  static I imul(I a, I b) { return _mm_mullo_epi32(a, b); }
+  static M lt(F a, F b) { return _mm_cmplt_ps(a, b); }
+  static M le(F a, F b) { return _mm_cmple_ps(a, b); }
+  static M gt(F a, F b) { return _mm_cmpgt_ps(a, b); }
+  static M ge(F a, F b) { return _mm_cmpge_ps(a, b); }
+  static M ne(F a, F b) { return _mm_cmpneq_ps(a, b); }
+  static M land(M a, M b) { return _mm_and_ps(a, b); }
+  static M lor(M a, M b) { return _mm_or_ps(a, b); }
+  static bool any(M m) { return _mm_movemask_ps(m) != 0; }
+  static int count(M m) { return __builtin_popcount(static_cast<unsigned>(_mm_movemask_ps(m))); }
+  static F keep(M m, F a) { return _mm_and_ps(m, a); }
+  static F select(M m, F a, F b) { return _mm_blendv_ps(b, a, m); }
+  static I ikeep(M m, I a) { return _mm_and_si128(_mm_castps_si128(m), a); }
+  // One 64-bit load per lane (MOVLPS / MOVHPS), then the even and the odd floats.
+  static void gather2(const float* base, I idx, F& lo, F& hi) {
+    const auto at = [base](int i) { return reinterpret_cast<const __m64*>(base + i); };
+    const F t0 =
+        _mm_loadh_pi(_mm_loadl_pi(_mm_setzero_ps(), at(_mm_cvtsi128_si32(idx))), at(_mm_extract_epi32(idx, 1)));
+    const F t1 =
+        _mm_loadh_pi(_mm_loadl_pi(_mm_setzero_ps(), at(_mm_extract_epi32(idx, 2))), at(_mm_extract_epi32(idx, 3)));
+    lo = _mm_shuffle_ps(t0, t1, _MM_SHUFFLE(2, 0, 2, 0));
+    hi = _mm_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 1, 3, 1));
+  }
+  static F gather(const float* base, I idx) {
+    return _mm_setr_ps(base[_mm_cvtsi128_si32(idx)], base[_mm_extract_epi32(idx, 1)], base[_mm_extract_epi32(idx, 2)],
+                       base[_mm_extract_epi32(idx, 3)]);
+  }
+};
+}  // namespace
+
+void track_rows__sse41(const TrackRowsParams& params, const float* cur_vertex, const float* cur_normal,
+                       const float* cur_intensity, std::size_t n, float* icp_rows, float* rgb_rows, std::size_t stride,
+                       TrackRowsCounts* counts) {
+  track_rows_simd<Sse41>(params, cur_vertex, cur_normal, cur_intensity, n, icp_rows, rgb_rows, stride, counts);
+}
+
+}  // namespace ef::kernels

@@ -1,0 +1,218 @@
+// Model prediction: the surfel map rendered at a camera pose, ElasticFusion-style (Whelan et al.,
+// RSS 2015, sections 3.2 and 4.1). One call makes one pass over the surfel pool and produces:
+//
+//   (a) the IndexMap (slam/index_map.h) for fusion's data association: every surfel (stable or not)
+//       whose centre lies between the clip planes is projected as a single point into a grid
+//       `index_map_scale` times finer than the working image; the nearest centre (smallest camera z)
+//       wins each index pixel.
+//
+//   (b) the predicted model maps the tracker aligns the next frame with (frame-to-model tracking),
+//       at the working resolution and in the camera frame of T_world_cam, with the conventions of
+//       slam/preprocess.h (vertex invalid = (0,0,0), unit normals facing the camera, intensity 0..255
+//       grey, gradients Sobel / 8). Only surfels that are stable (confidence >= the tracking
+//       threshold), inside the active time window and facing the camera take part. Each is drawn as
+//       a disc (splat): every pixel whose ray meets the surfel's plane within `radius` of its centre
+//       gets the ray-plane intersection as its vertex (more exact than the centre; a plane of
+//       surfels predicts the plane itself). The nearest intersection wins, except that within a depth
+//       band (splat_tie_depth_fraction) the disc centred nearest the pixel's ray wins, so that discs
+//       of one surface do not compete on noise. Vertex, normal and colour are resolved once per pixel
+//       afterwards from the winning surfel ("deferred shading"), so the overdraw of overlapping discs
+//       costs only a depth test per covered pixel.
+//
+//   (c) the coarser levels, built like the current frame's (slam/preprocess.h) so that reference and
+//       current pyramids are smoothed alike: depth = [1 3 3 1] binomial over the 4x4 window of the
+//       finer level's predicted depths on the near surface of the central 2x2 block, vertex = that
+//       depth back-projected on the coarse pixel's ray, normal = central differences of the coarse
+//       vertices (none across a depth step), intensity = the same binomial over predicted pixels.
+//       (Averaging the finer normals instead, as ElasticFusion does with its fused and therefore
+//       smooth normals, was measured worse while the map is young: see model_prediction.cpp.)
+//       Gradients on every level treat missing neighbours as equal to the centre (no edge at the
+//       border of a hole), and holes then get the mean intensity of their predicted 3x3 neighbours,
+//       so that the tracker's bilinear sampling next to a hole does not blend in black.
+//
+// Level l has exactly the size and intrinsics Intrinsics::pyramid_level(l) of the working intrinsics
+// (as the Preprocessor's), so predictor.pyramid_view() can be the tracker's reference:
+//   tracker.track(predictor.pyramid_view(), pyramid_view(preprocessor), guess, &result);
+// The tracker's result is then T_ref_cur with ref = the camera of the pose given to predict().
+//
+// Cost (bench/slam_predict.cpp): the pool is read in blocks of 256 surfels; a branch-free loop
+// transforms and projects a block (vectorised; surfels behind the camera or outside the clip range
+// are masked, not branched on), then scalar loops scatter the centres into the index map and set up
+// the discs of the tracking candidates, whose pixels are tested by kernels/splat_disc (SIMD across the
+// pixels of a row: SSE4.1 / AVX2 / NEON, bit-identical to its scalar twin); resolve() prefetches the
+// next row's winners. Measured (thread CPU time, one x86-64 core of a shared machine, 320x240,
+// fusion-sized radii, 300k surfels of which ~80k discs in view): 13.9 ms with scalar disc rows,
+// 10.4 ms with the kernel (AVX2); the transform and index map are ~1.9 ms of that, resolve 1.3 ms,
+// the pyramid 1.6 ms.
+//
+// Memory: create() allocates everything (at 320x240, scale 4, 3 levels: 9.8 MB of index map, 3.6 MB
+// of level-0 buffers and maps, 1.0 MB for levels 1-2); predict() performs no heap allocation.
+// Threads: one ModelPredictor per thread; predict() and the accessors must not run concurrently.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/result.h"
+#include "core/se3.h"
+#include "slam/index_map.h"
+#include "slam/surfel_pool.h"
+#include "slam/tracker.h"
+
+namespace ef::slam {
+
+struct PredictionOptions {
+  // Index map resolution: index pixels per working pixel along each axis (1..4). Default 4 as
+  // ElasticFusion: up to 16 candidate surfels per input pixel for fusion. Measured at 320x240 on one
+  // x86-64 core (bench/slam_predict, 300k surfels, ~100k of them in view; a shared 2-vCPU machine):
+  // the whole predict() takes 12.8 ms at 4x and 12.3 ms at 2x (clearing 1280x960 x 8 bytes is
+  // 0.27 ms against 0.06 ms; the scatter of the centres costs about the same in both), so the finer
+  // map is kept: the time goes into rasterising the tracking discs. Fusion must use the same scale.
+  int index_map_scale = 4;
+  // Surfels with confidence >= this (dimensionless accumulated weight) are stable and drawn into the
+  // tracking maps (ElasticFusion: 10). predict(..., tracking_min_confidence) overrides it per call
+  // (e.g. while the map is young and no surfel can have reached it yet).
+  float stable_confidence = 10.0f;
+  // Frames: surfels whose last_seen is more than this many frames before the predicted frame are
+  // left out of the tracking maps (ElasticFusion's active / inactive time window: 200). 0 = no limit.
+  // The index map always holds every surfel.
+  int32_t active_window_frames = 200;
+  // Cap of a disc's footprint, half-width in working pixels (> 0, at most 64). A surfel seen much
+  // closer than when it was created would otherwise cover a large area per surfel; beyond the cap
+  // its disc is clipped to a square of this half-width. 8 px at 320x240: a surfel created at
+  // radius sqrt(2) z / f (1.4 px) stays uncapped until seen about 5.7 times closer.
+  float max_splat_radius_px = 8.0f;
+  // Clip planes, metres along the optical axis: surfel centres outside [near, far] are not drawn in
+  // either map (0 < near < far). 0.1 m keeps the projection well-conditioned (no structured-light
+  // sensor measures that close); 8 m is the preprocessing depth cut-off (SemanticFusion): the
+  // current frame has no depth beyond it, so model points there would have nothing to match.
+  float near_clip_m = 0.1f;
+  float far_clip_m = 8.0f;
+  // Visibility between overlapping discs, as a fraction of depth (dimensionless, 0..0.1). A pixel
+  // is owned by the disc with the smallest z (1 + splat_tie_depth_fraction e^2 / r^2), z the depth of
+  // the ray's intersection with the disc's plane, e its distance from the disc's centre and r the
+  // radius: a disc nearer by more than this fraction of the depth always wins (occlusion), while
+  // among discs of one surface (intersections within the band) the one centred nearest the ray wins.
+  // Without the band the most forward of several noisy coplanar intersections wins, which pulls the
+  // predicted surface toward the camera. Measured on the noisy synthetic office (320x240, a model
+  // made from frame 10, frame 12 tracked against it; frame-to-frame tracking of the same pair:
+  // 1.50 mm): band 0 -> 11.9 mm translation error, 0.005 -> 8.8 mm, 0.01 -> 4.5 mm, 0.02 -> 1.56 mm,
+  // 0.05 -> 1.69 mm. 0.02 is 4 cm at 2 m for e = r, several times a Kinect's depth noise there, and
+  // well below the depth gap of most occlusion edges. 0 = plain z-test.
+  float splat_tie_depth_fraction = 0.02f;
+  // Coarse levels: a finer depth takes part in a coarse pixel when it is within this distance
+  // (metres) of the near surface of the central 2x2 block, so a coarse pixel on a step edge takes one
+  // surface rather than a depth between (KinectFusion: 3 sigma_depth; preprocessing's default 0.09 m).
+  float pyramid_depth_threshold_m = 0.09f;
+  // Coarse-level normals: none where a neighbour's depth differs from the centre's by more than a
+  // surface at this grazing angle (degrees between surface and viewing ray, 0..90 exclusive) would
+  // give over one pixel, z / (f tan(angle)). 5 deg as preprocessing's normal_min_grazing_deg.
+  float normal_min_grazing_deg = 5.0f;
+
+  // An error naming the first field out of range.
+  Status validate() const;
+  // One line per field with its unit, for logs.
+  std::string describe() const;
+};
+
+// Totals of the last predict() call.
+struct PredictionCounters {
+  int64_t index_surfels = 0;     // surfels whose centre landed in the index grid (= IndexMap::surfels_drawn)
+  int64_t tracking_candidates = 0;  // stable, in-window, front-facing, within the clip range and
+                                    // centred within max_splat_radius_px of the image
+  int64_t splatted_surfels = 0;  // of those, surfels whose disc overlapped the image and was rasterised
+  int64_t valid_pixels = 0;      // level-0 pixels with a predicted vertex
+};
+
+// Milliseconds spent by the last predict() call, per stage (steady clock).
+struct PredictionTimings {
+  double clear_ms = 0;    // resetting the index map and the level-0 depth / winner buffers
+  double render_ms = 0;   // the pass over the pool: transform, index map scatter, disc rasterisation
+  double resolve_ms = 0;  // level-0 vertex, normal, colour and intensity from the winning surfels
+  double pyramid_ms = 0;  // coarser levels, gradients and hole filling of every level
+  double total_ms = 0;
+};
+
+// One predicted level (conventions of slam/preprocess.h; camera frame of the predicted pose).
+struct PredictedLevel {
+  Intrinsics intrinsics;          // Intrinsics::pyramid_level(l) of the working intrinsics
+  Image<float> depth;             // camera z of the vertex, metres; 0 = none
+  Image<Eigen::Vector3f> vertex;  // metres; invalid = (0, 0, 0)
+  Image<Eigen::Vector3f> normal;  // unit, toward the camera; invalid = (0, 0, 0)
+  Image<float> intensity;         // grey 0..255 (0.299 R + 0.587 G + 0.114 B); holes hold their
+                                  // neighbours' mean (or 0): test the vertex for validity
+  Image<float> grad_x, grad_y;    // Sobel / 8, grey levels per pixel of this level; 0 in holes
+};
+
+class ModelPredictor {
+ public:
+  // Allocates every buffer for a working image of working.width x working.height and `levels`
+  // pyramid levels (1..kTrackerMaxLevels; the coarsest must be at least 8x8, as the Preprocessor's).
+  // Errors (kInvalidArgument): invalid options, intrinsics or level count.
+  static Result<ModelPredictor> create(const Intrinsics& working, int levels, const PredictionOptions& options = {});
+
+  ModelPredictor(ModelPredictor&&) noexcept = default;
+  ModelPredictor& operator=(ModelPredictor&&) noexcept = default;
+
+  // Renders `pool` seen from T_world_cam (camera to world) for frame `frame_index` (the frame the
+  // active window is measured from). The tracking maps use surfels with confidence >=
+  // options().stable_confidence; the second form uses `tracking_min_confidence` instead (>= 0,
+  // finite). Everything of the previous call is overwritten. Errors (kInvalidArgument): a bad
+  // tracking_min_confidence. No heap allocation.
+  Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index);
+  Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index, float tracking_min_confidence);
+
+  // The index map of the last predict() (ids valid until the pool next removes a surfel).
+  const IndexMap& index_map() const { return index_map_; }
+  // The predicted maps as the tracker's reference pyramid (valid until the next predict()); every
+  // level has intensity and gradient views.
+  PyramidView pyramid_view() const;
+
+  int levels() const { return levels_; }
+  const PredictedLevel& level(int l) const { return level_[l]; }
+  const Intrinsics& intrinsics() const { return level_[0].intrinsics; }
+  // Level 0: camera z of the predicted vertex (metres, 0 = none), the winning surfel's colour
+  // (black where none) and its id (-1 where none).
+  ImageView<const float> depth() const { return level_[0].depth.view(); }
+  ImageView<const Rgb8> color() const { return color_.view(); }
+  ImageView<const int32_t> surfel_ids() const { return winner_.view(); }
+  // The pose of the last predict() (camera to world); identity before the first.
+  const SE3& pose() const { return index_map_.T_world_cam; }
+
+  const PredictionCounters& counters() const { return counters_; }
+  const PredictionTimings& timings() const { return timings_; }
+  const PredictionOptions& options() const { return options_; }
+
+ private:
+  ModelPredictor() = default;
+  struct Pose;  // the float camera transform of one predict() call (model_prediction.cpp)
+  void clear();
+  void render(const SurfelPool& pool, const Pose& pose);
+  void splat(const SurfelPool& pool, const Pose& pose, int64_t id, float xc, float yc, float zc);
+  void resolve(const SurfelPool& pool, const Pose& pose);
+  void downsample_depth(int l);
+  void vertex_normal(int l);
+  void downsample_intensity(int l);
+  void gradients(int l);
+  void fill_holes(int l);
+
+  PredictionOptions options_;
+  int levels_ = 0;
+  PredictedLevel level_[kTrackerMaxLevels];
+  IndexMap index_map_;
+  // level_[0].depth holds, while rendering, the visibility key z (1 + tie e^2 / r^2) of the disc
+  // owning each pixel (+inf = none); resolve() replaces it by the depth.
+  Image<int32_t> winner_;   // level 0: the surfel owning each pixel, -1 = none
+  Image<Rgb8> color_;       // level 0: that surfel's colour
+  Image<float> ray_x_;      // (x - cx) / fx for every level-0 column (1 row), metres per metre of z
+  Image<float> ray_y_;      // (y - cy) / fy for every level-0 row (1 row)
+  Image<float> row_scratch_;  // one level-0 row of fill_holes() output
+  PredictionCounters counters_;
+  PredictionTimings timings_;
+};
+
+}  // namespace ef::slam

@@ -1,0 +1,369 @@
+// Surfel fusion: integrates one tracked RGB-D frame into the surfel pool, point-based fusion as in
+// ElasticFusion (Whelan et al., RSS 2015, section 3) after Keller et al. (3DV 2013, "Real-time 3D
+// reconstruction in dynamic scenes using point-based fusion").
+//
+// One fuse() call, in this order (ids change only in steps 3 and 4, after every association):
+//   1. association   every valid pixel (raw depth > 0 and a valid level-0 normal) is moved into the
+//                    camera the index map was rendered from (IndexMap::T_world_cam: the previous pose,
+//                    which saves a second render on the CPU) and projected into the index grid. Its
+//                    candidates are the surfels of the scale x scale block of index pixels around the
+//                    projection (the pixel's footprint), and only when none of those can take the
+//                    measurement, of a margin of search_margin_index_px around the block. A candidate
+//                    passes the depth gate |z_surfel - z_measured| <= depth_gate_m(z) (along the index
+//                    camera's ray: the map stores the surfel's depth in that camera) and the normal gate
+//                    (angle <= association_normal_deg, world frame). The winner is a surfel not yet
+//                    updated this frame if there is one, then the nearest to the ray (index-pixel
+//                    distance of its centre), then the most confident. If the winner was already
+//                    updated this frame the pixel is "covered": neither a second update (at most one
+//                    per surfel per frame) nor a new surfel.
+//   2. fusion        the winner takes the confidence-weighted average of position, normal
+//                    (renormalised), colour and radius, confidence += w, last_seen = frame - unless the
+//                    measurement's radius exceeds max_radius_growth x the surfel's: then only the
+//                    confidence and last_seen change (a coarser view confirms but does not blur a finer
+//                    surfel; ElasticFusion's rule). Gated candidates of that pixel that duplicate the
+//                    winner (merge_* options) are merged into the more confident of the two.
+//   3. cleaning      over the surfels seen in the candidate windows this frame, plus a bounded
+//                    round-robin sweep of the pool for the lifetime rule: an unstable surfel older than
+//                    unstable_lifetime_frames (since init_time) is removed; a surfel of a pixel's block
+//                    lying in front of the measured surface by more than free_space_gate_factor depth
+//                    gates (free-space violation) and not updated this frame is removed if unstable,
+//                    or loses free_space_penalty confidence if stable; merged surfels are removed.
+//                    Swap-removal from high ids to low.
+//   4. creation      every unmatched valid pixel becomes a new surfel through
+//                    SurfelPool::reserve_for_new (the full-pool policy: evictions and refusals are
+//                    counted by the pool); when not all fit, the admitted ones are spread evenly over
+//                    the image rather than taken from the top rows.
+// The cost is that of the frame's pixels and their candidates, not of the pool size (except the
+// pool's own eviction scan when it is full: slam/surfel_pool.h).
+//
+// Depth and normals used: positions and radii from the raw (cut-off) depth, as ElasticFusion does:
+// fusion over many frames is the denoiser, and it keeps edges and small structures that the
+// bilateral filter rounds off (fuse_raw_depth). Normals from the filtered depth, of pyramid level 1
+// by default, because level-0 normals of Kinect-like depth at 320x240 are too noisy to gate on
+// (normal_level, with the measurements).
+//
+// Confidence weight (ElasticFusion): w = exp(-gamma^2 / (2 sigma^2)), gamma = distance of the pixel
+// from the principal point divided by that of the farthest image corner (0 at the centre, 1 at the
+// corners), sigma = confidence_sigma: 1 at the centre, 0.25 in the corners for sigma 0.6.
+// Radius (ElasticFusion): r = sqrt(2) z / f / |cos(incidence)|, the disc that covers the pixel's
+// footprint on the surface; 1/|cos| capped at max_radius_incidence_factor.
+//
+// Memory: create() allocates everything, bytes(): 4 per surfel of pool capacity (per-surfel state
+// of the current frame), 4 per entry of the list of seen surfels (min(capacity, index pixels) plus
+// lifetime_sweep_per_frame), 8 per working pixel (unmatched pixels, confidence weights); 8.7 MB at
+// 320x240 with a 1,000,000-surfel pool. fuse() never touches the heap.
+// Threads: one SurfelFusion per mapping thread; fuse() is not reentrant.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/result.h"
+#include "core/se3.h"
+#include "slam/index_map.h"
+#include "slam/surfel_pool.h"
+
+namespace ef::slam {
+
+class Preprocessor;
+
+struct FusionOptions {
+  // Confidence at which a surfel is stable (dimensionless, > 0): used for tracking, never evicted,
+  // not removed by the lifetime rule. ElasticFusion: 10.
+  float stable_confidence = 10.0f;
+
+  // Confidence weight: sigma of the Gaussian of the normalised radial distance (dimensionless, > 0).
+  // ElasticFusion: 0.6.
+  float confidence_sigma = 0.6f;
+
+  // Depth gate, metres: |z_surfel - z_measured| <= association_depth_base_m +
+  // association_depth_quadratic * z^2 (z the measured depth, metres). Follows the Kinect's axial
+  // noise, which grows with z^2 (1.9 mm at 1 m, 14 mm at 3 m; quantisation steps 3 mm / 26 mm):
+  // defaults give 1.8 cm at 1 m, 4.2 cm at 2 m, 8.2 cm at 3 m, 13.8 cm at 4 m.
+  float association_depth_base_m = 0.01f;
+  float association_depth_quadratic = 0.008f;  // metres per metre^2
+  // Candidates: the scale x scale block of index pixels nearest to the pixel's projection (one
+  // working pixel's footprint, ElasticFusion's 4x4); when no surfel of the block can take the
+  // measurement, also a margin of this many index pixels around it (0..4). Only block surfels can be
+  // free-space violations. Why 1 (a 6x6 window at scale 4, 1.5 working pixels): surfels made at one
+  // pose are not one per pixel seen from the next, and a pixel whose block happens to hold none
+  // makes a duplicate about half a pixel from an existing surfel. Measured (default options
+  // otherwise): a noise-free office pair 2 cm / 1.2 degrees apart makes new surfels for 11.6% of the
+  // pixels with margin 0, 3.8% with 1, 3.2% with 2 (~2.4% are newly seen surface); after 30 noisy
+  // office frames the pool holds 176k / 122k / 108k surfels for the same ~52k stable ones. The
+  // price: pixels whose candidates were all updated already this frame ("covered": 0.4% / 13% / 19%
+  // of the pixels at frame 29) add nothing; the map densifies only where its surfels are more than
+  // 1.5 pixels apart in the view.
+  int search_margin_index_px = 1;
+  // Normal gate: largest angle between the surfel's and the measured normal, degrees (0, 90].
+  // 30 = ElasticFusion's 0.5 rad. Measured over 30 noisy office frames (defaults otherwise), pixels
+  // unmatched because of the normal gate at frame 29: 2.5% at 20 degrees, 1.1% at 30.
+  float association_normal_deg = 30.0f;
+
+  // Radius: 1/|cos(incidence)| is capped at this (>= 1): a grazing view does not make huge discs.
+  // 4 = the radius stops growing beyond ~75.5 degrees of incidence.
+  float max_radius_incidence_factor = 4.0f;
+  // A measurement whose radius exceeds this factor times the surfel's only adds confidence and
+  // updates last_seen (dimensionless, >= 1). ElasticFusion / Keller: 1.5.
+  float max_radius_growth = 1.5f;
+
+  // Unstable surfels (confidence < stable_confidence) older than this many frames since init_time
+  // are removed (frames, >= 1). 60 frames = 2 s at 30 Hz: a surface seen throughout that time gains
+  // at least 60 x 0.25 = 15 > 10 confidence even in the image corners.
+  int32_t unstable_lifetime_frames = 60;
+  // Surfels not seen this frame are checked for the lifetime rule by a round-robin sweep of this
+  // many ids per frame (>= 0; 0 = only surfels seen in the candidate windows are checked): a
+  // bounded sequential scan of two columns; a 1,000,000-surfel pool is swept in 62 frames.
+  int32_t lifetime_sweep_per_frame = 16384;
+
+  // Free-space violation: a surfel whose depth is smaller than the measured depth by more than
+  // free_space_gate_factor depth gates (at that depth) lies in space the sensor sees through.
+  // Dimensionless, >= 1. 2: 3.6 cm at 1 m, 16 cm at 3 m.
+  float free_space_gate_factor = 2.0f;
+  // Confidence taken from a stable violating surfel (dimensionless, >= 0): about one observation at
+  // the image centre, so a surface that disappeared (moved object) fades out over as many frames as
+  // it took to build, while one wrong pixel at an edge does little.
+  float free_space_penalty = 1.0f;
+
+  // Duplicate merging, among the candidates that passed the gates for the pixel a surfel was fused
+  // at: a candidate merges into it (or it into the candidate, whichever is more confident) when their
+  // centres are within merge_max_distance_px working pixels of each other both in the index grid
+  // and across the normal (metres: that many pixels' footprint z / f at their depth), within one
+  // depth gate along the normal, their normals within merge_normal_deg degrees and radii within
+  // merge_max_radius_ratio. 0.5 px: surfels of neighbouring pixels (1 px apart) never merge; two
+  // surfels closer than half a pixel cannot be told apart at this resolution. 0 disables merging.
+  float merge_max_distance_px = 0.5f;
+  float merge_normal_deg = 15.0f;
+  float merge_max_radius_ratio = 1.5f;
+
+  // true (default): positions and radii from the raw (cut-off) depth, normals from the filtered depth
+  // (ElasticFusion). false: positions from the bilateral-filtered depth too.
+  bool fuse_raw_depth = true;
+  // Pyramid level whose normals are fused and gated (0 or 1; must exist in the Preprocessor). Level
+  // 1 (half resolution, from a depth averaged over 4x4 pixels) is the default because level-0
+  // normals of Kinect-like depth at 320x240 are too noisy to gate on: measured on the noisy
+  // synthetic office against noise-free normals, median / 90th percentile error 19 / 40 degrees at
+  // 2.5-3.5 m on level 0 but 5 / 12 degrees on level 1; after 30 frames the pool holds 340k surfels
+  // of which 23k stable with level 0, 122k of which 53k stable with level 1. A pixel takes the
+  // level-1 normal of its 2x2 block when that block's depth is within the depth gate of its own
+  // (same surface), else its own level-0 normal; it needs a valid level-0 normal either way (which
+  // excludes depth edges). The price: creases are blurred over 2 pixels.
+  int normal_level = 1;
+
+  // An error naming the first field out of range.
+  Status validate() const;
+  // One line per field with its unit, for logs.
+  std::string describe() const;
+};
+
+// What the last fuse() did. Pixel counts are working-resolution pixels.
+struct FusionStats {
+  int64_t valid_pixels = 0;     // raw depth > 0 and a valid normal
+  int64_t fused_pixels = 0;     // fused into an existing surfel (averaged or confidence only)
+  int64_t confirmed_only = 0;   // of fused_pixels: radius rule, only confidence and last_seen changed
+  int64_t covered_pixels = 0;   // the only passing candidates were already updated this frame
+  int64_t new_surfels = 0;      // appended
+  // Why pixels were unmatched (the three sum to new_surfels + refused):
+  int64_t unmatched_empty = 0;  // no candidate in the window (or no index map / behind its camera)
+  int64_t unmatched_depth = 0;  // candidates, none within the depth gate
+  int64_t unmatched_normal = 0; // candidates within the depth gate, none within the normal gate
+  int64_t refused = 0;          // unmatched pixels not created: pool full (also counted by the pool)
+  int64_t evicted = 0;          // surfels the pool evicted this frame to make room
+  int64_t removed_stale = 0;    // unstable beyond unstable_lifetime_frames
+  int64_t removed_free_space = 0;
+  int64_t demoted_free_space = 0;  // stable surfels that lost confidence to a free-space violation
+  int64_t merged = 0;           // surfels merged into another (and removed)
+  int64_t seen_surfels = 0;     // distinct surfels found in the candidate windows
+  int64_t invalid_index_ids = 0;  // index map ids >= pool size (a stale map: should stay 0)
+  double associate_ms = 0;      // steps 1-2
+  double clean_ms = 0;          // step 3
+  double create_ms = 0;         // step 4
+  double total_ms = 0;
+};
+
+// Per-surfel and per-pixel maths, written once: the scalar loop of fuse() uses these and any SIMD
+// variant must too (docs/architecture.md: "per-element maths written once").
+namespace fusion_math {
+
+// ElasticFusion's confidence weight from the squared normalised radial distance gamma^2 (0 at the
+// principal point, 1 at the farthest corner); inv_two_sigma2 = 1 / (2 sigma^2).
+inline float confidence_weight(float gamma2, float inv_two_sigma2) { return std::exp(-gamma2 * inv_two_sigma2); }
+
+// The depth gate at depth z (metres), metres.
+inline float depth_gate_m(float z, float base_m, float quadratic) { return base_m + quadratic * z * z; }
+
+// Disc radius (metres) of a measurement at depth z (metres) seen with |cos(incidence)| = cos_abs,
+// focal length f (pixels): sqrt(2) z / f / cos, with 1/cos capped at max_factor.
+inline float surfel_radius_m(float z, float cos_abs, float f, float max_factor) {
+  const float inv_cos = cos_abs * max_factor > 1.0f ? 1.0f / cos_abs : max_factor;
+  return 1.41421356f * z / f * inv_cos;
+}
+
+// The quantity averaged into a surfel: world-frame position (metres), unit normal, radius (metres),
+// colour (0..255 per channel) and the weight of this observation.
+struct Sample {
+  Eigen::Vector3f p, n;
+  float radius = 0;
+  float r = 0, g = 0, b = 0;
+  float weight = 0;
+};
+
+inline uint8_t to_u8(float c) {
+  const float v = c + 0.5f;
+  return v <= 0.0f ? uint8_t{0} : (v >= 255.0f ? uint8_t{255} : static_cast<uint8_t>(v));
+}
+
+// The confidence-weighted average of surfel `id` (confidence c) and `s` (weight w):
+// x <- (c x + w x_s) / (c + w) for position, normal (then renormalised), colour and radius; the
+// confidence becomes c + w. Writes the columns of `pool`; confidence and times are the caller's.
+inline void average_into(SurfelPool& pool, int64_t id, const Sample& s) {
+  const float c = pool.confidence()[id];
+  const float inv = 1.0f / (c + s.weight);
+  const float a = c * inv, b = s.weight * inv;
+  pool.x()[id] = a * pool.x()[id] + b * s.p.x();
+  pool.y()[id] = a * pool.y()[id] + b * s.p.y();
+  pool.z()[id] = a * pool.z()[id] + b * s.p.z();
+  Eigen::Vector3f n(a * pool.nx()[id] + b * s.n.x(), a * pool.ny()[id] + b * s.n.y(), a * pool.nz()[id] + b * s.n.z());
+  const float len = n.norm();
+  if (len > 1e-6f) n /= len;  // opposite normals cannot pass the gates; keep the old one if they did
+  else n = Eigen::Vector3f(pool.nx()[id], pool.ny()[id], pool.nz()[id]);
+  pool.nx()[id] = n.x();
+  pool.ny()[id] = n.y();
+  pool.nz()[id] = n.z();
+  pool.radius()[id] = a * pool.radius()[id] + b * s.radius;
+  const uint32_t col = pool.color()[id];
+  pool.color()[id] = pack_rgb(to_u8(a * unpack_r(col) + b * s.r), to_u8(a * unpack_g(col) + b * s.g),
+                              to_u8(a * unpack_b(col) + b * s.b));
+}
+
+// ElasticFusion's update of surfel `id` by one measurement at frame `frame`: the average above when
+// s.radius <= max_radius_growth x the surfel's radius, then (always) confidence += weight and
+// last_seen = frame. Returns whether the geometry was averaged.
+inline bool fuse_sample(SurfelPool& pool, int64_t id, const Sample& s, float max_radius_growth, int32_t frame) {
+  const bool average = s.radius <= max_radius_growth * pool.radius()[id];
+  if (average) average_into(pool, id, s);
+  pool.confidence()[id] += s.weight;
+  pool.last_seen()[id] = frame;
+  return average;
+}
+
+// The surfel `id` as a Sample weighted by its confidence (for merging).
+inline Sample sample_of(const SurfelPool& pool, int64_t id) {
+  Sample s;
+  s.p = Eigen::Vector3f(pool.x()[id], pool.y()[id], pool.z()[id]);
+  s.n = Eigen::Vector3f(pool.nx()[id], pool.ny()[id], pool.nz()[id]);
+  s.radius = pool.radius()[id];
+  const uint32_t c = pool.color()[id];
+  s.r = unpack_r(c);
+  s.g = unpack_g(c);
+  s.b = unpack_b(c);
+  s.weight = pool.confidence()[id];
+  return s;
+}
+
+// Merges surfel `other` into `keep`: confidence-weighted average, confidences summed (both were
+// evidence of the same surface), the earlier init_time and the later last_seen. `other` is left
+// for the caller to remove. Labels stay those of `keep` (issue 6 may fuse them).
+inline void merge_into(SurfelPool& pool, int64_t keep, int64_t other) {
+  const Sample s = sample_of(pool, other);
+  average_into(pool, keep, s);
+  pool.confidence()[keep] += s.weight;
+  if (pool.init_time()[other] < pool.init_time()[keep]) pool.init_time()[keep] = pool.init_time()[other];
+  if (pool.last_seen()[other] > pool.last_seen()[keep]) pool.last_seen()[keep] = pool.last_seen()[other];
+}
+
+}  // namespace fusion_math
+
+class SurfelFusion {
+ public:
+  // working: intrinsics of the frames fuse() gets (Preprocessor level 0). index_map_scale: the
+  // IndexMap::scale the predictor renders with (1..4). pool_capacity: the capacity of the pools
+  // fuse() will write (per-surfel scratch is sized to it). Errors (kInvalidArgument): invalid
+  // options, intrinsics, scale or capacity.
+  static Result<SurfelFusion> create(const Intrinsics& working, int index_map_scale, int64_t pool_capacity,
+                                     const FusionOptions& options = {});
+
+  SurfelFusion(SurfelFusion&&) noexcept = default;
+  SurfelFusion& operator=(SurfelFusion&&) noexcept = default;
+
+  // Fuses the preprocessed frame `frame` (working resolution), seen from T_world_cam (camera to
+  // world), into `pool`, associating through `index` (rendered from `pool` at index.T_world_cam, a
+  // nearby pose, before any removal since). `color`: sRGB of the working size, or empty (new surfels
+  // are then mid grey and colours are not updated). An empty index map (nothing rendered yet) means
+  // no candidates: every valid pixel becomes a new surfel. frame_index: stored as init_time /
+  // last_seen and compared with them by the lifetime rule.
+  // Errors (kInvalidArgument): sizes that do not match create(), a wrong index-map scale, a pool
+  // larger than the capacity given at create(), a Preprocessor without options().normal_level,
+  // null pointers. No heap allocation.
+  Status fuse(const Preprocessor& frame, ImageView<const Rgb8> color, const SE3& T_world_cam, const IndexMap& index,
+              int32_t frame_index, SurfelPool* pool, FusionStats* stats);
+
+  const FusionOptions& options() const { return options_; }
+  const Intrinsics& intrinsics() const { return K_; }
+  int index_map_scale() const { return scale_; }
+  // Bytes allocated by create().
+  std::size_t bytes() const { return bytes_; }
+
+ private:
+  SurfelFusion() = default;
+
+  // Per-surfel state of the current frame, in state_[id]: (epoch_ << kStateBits) | flags. A value
+  // with another epoch means "untouched this frame", so nothing is cleared between frames.
+  enum StateFlag : uint32_t { kSeen = 1, kUpdated = 2, kViolated = 4, kMerged = 8 };
+  static constexpr uint32_t kStateBits = 4;
+
+  struct PixelContext;  // one pixel's measurement, in the frames the loop needs (surfel_fusion.cpp)
+  struct FrameContext;  // per-frame transforms and gates
+  struct WindowScan;    // one pixel's candidates
+
+  void begin_epoch();
+  uint32_t flags(int64_t id) const {
+    const uint32_t s = state_[id];
+    return (s >> kStateBits) == epoch_ ? (s & ((1u << kStateBits) - 1)) : 0u;
+  }
+  void set_flag(int64_t id, uint32_t f) { state_[id] = (epoch_ << kStateBits) | flags(id) | f; }
+  // Marks `id` seen (and lists it) the first time this frame.
+  void see(int64_t id);
+
+  bool make_pixel(const FrameContext& fc, int x, int y, PixelContext* px) const;
+  void associate(const FrameContext& fc, const IndexMap& index, SurfelPool& pool, int32_t frame_index,
+                 FusionStats& st);
+  void visit_cell(const FrameContext& fc, const SurfelPool& pool, const PixelContext& px, int32_t id, float surfel_z,
+                  int bx, int by, bool in_base, WindowScan* ws, FusionStats& st);
+  void scan_window(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool, const PixelContext& px,
+                   WindowScan* ws, FusionStats& st);
+  void merge_duplicates(SurfelPool& pool, const WindowScan& ws, float z, FusionStats& st);
+  void clean(SurfelPool& pool, int32_t frame_index, FusionStats& st);
+  void create_new(const FrameContext& fc, SurfelPool& pool, int32_t frame_index, FusionStats& st);
+  fusion_math::Sample sample_at(const FrameContext& fc, const PixelContext& px) const;
+  bool mergeable(const SurfelPool& pool, int64_t a, int64_t b, float z) const;
+  // The depth gate at depth z (metres), metres.
+  float depth_gate(float z) const {
+    return fusion_math::depth_gate_m(z, options_.association_depth_base_m, options_.association_depth_quadratic);
+  }
+
+  FusionOptions options_;
+  Intrinsics K_;
+  int scale_ = 4;
+  int64_t capacity_ = 0;
+  std::size_t bytes_ = 0;
+  float cos_normal_gate_ = 0, cos_merge_gate_ = 0, focal_ = 0;
+  ImageView<const Rgb8> color_;            // the current frame's colour (fuse() only)
+
+  std::unique_ptr<uint32_t[]> state_;      // capacity_ entries, see StateFlag
+  uint32_t epoch_ = 0;
+  std::unique_ptr<int32_t[]> seen_;        // ids seen this frame, then the ids to remove
+  int64_t seen_capacity_ = 0, seen_count_ = 0;
+  std::unique_ptr<int32_t[]> unmatched_;   // pixel indices y * width + x of unmatched valid pixels
+  int64_t unmatched_count_ = 0;
+  Image<float> weight_;                    // confidence weight per working pixel
+  int64_t sweep_cursor_ = 0;               // next id of the lifetime sweep
+};
+
+}  // namespace ef::slam

@@ -1,0 +1,180 @@
+#include "slam/surfel_pool.h"
+
+#include <algorithm>
+#include <cstring>
+#include <new>
+#include <sstream>
+
+namespace ef::slam {
+
+namespace {
+constexpr std::size_t kAlign = 64;
+constexpr int64_t kMaxCapacity = 100'000'000;
+std::size_t round_up(std::size_t n) { return (n + kAlign - 1) & ~(kAlign - 1); }
+}  // namespace
+
+Status SurfelPoolOptions::validate() const {
+  if (capacity < 1 || capacity > kMaxCapacity)
+    return error(ErrorCode::kInvalidArgument,
+                 "surfel pool: capacity " + std::to_string(capacity) + " is outside 1..100000000");
+  if (evict_unseen_frames < 1)
+    return error(ErrorCode::kInvalidArgument,
+                 "surfel pool: evict_unseen_frames " + std::to_string(evict_unseen_frames) + " must be >= 1");
+  return Status::success();
+}
+
+std::string SurfelPoolOptions::describe() const {
+  std::ostringstream s;
+  s << "capacity: " << capacity << "  # surfels, " << SurfelPool::kBytesPerSurfel << " bytes each\n"
+    << "evict_unseen_frames: " << evict_unseen_frames << "  # frames; unstable surfels unseen this long may be evicted\n";
+  return s.str();
+}
+
+void SurfelPool::AlignedFree::operator()(unsigned char* p) const { ::operator delete[](p, std::align_val_t(kAlign)); }
+
+Result<SurfelPool> SurfelPool::create(const SurfelPoolOptions& options) {
+  if (Status s = options.validate(); !s.ok()) return s.take_error();
+  const auto n = static_cast<std::size_t>(options.capacity);
+  const std::size_t f = round_up(n * sizeof(float));
+  const std::size_t u = round_up(n * sizeof(uint32_t));
+  const std::size_t l = round_up(n * kLabelBytesPerSurfel);
+  const std::size_t total = 8 * f + 3 * u + l;
+  SurfelPool pool;
+  pool.options_ = options;
+  unsigned char* block = new (std::align_val_t(kAlign), std::nothrow) unsigned char[total];
+  if (block == nullptr)
+    return error(ErrorCode::kResourceExhausted, "surfel pool: cannot allocate " + std::to_string(total) +
+                                                    " bytes for " + std::to_string(options.capacity) + " surfels");
+  pool.block_.reset(block);
+  pool.bytes_ = total;
+  unsigned char* p = block;
+  auto take = [&p](std::size_t bytes) { unsigned char* q = p; p += bytes; return q; };
+  pool.x_ = reinterpret_cast<float*>(take(f));
+  pool.y_ = reinterpret_cast<float*>(take(f));
+  pool.z_ = reinterpret_cast<float*>(take(f));
+  pool.nx_ = reinterpret_cast<float*>(take(f));
+  pool.ny_ = reinterpret_cast<float*>(take(f));
+  pool.nz_ = reinterpret_cast<float*>(take(f));
+  pool.radius_ = reinterpret_cast<float*>(take(f));
+  pool.confidence_ = reinterpret_cast<float*>(take(f));
+  pool.color_ = reinterpret_cast<uint32_t*>(take(u));
+  pool.init_time_ = reinterpret_cast<int32_t*>(take(u));
+  pool.last_seen_ = reinterpret_cast<int32_t*>(take(u));
+  pool.labels_ = take(l);
+  return pool;
+}
+
+int64_t SurfelPool::append(float px, float py, float pz, float pnx, float pny, float pnz, float pradius,
+                           float pconfidence, uint32_t pcolor, int32_t frame) {
+  if (size_ >= options_.capacity) {
+    ++counters_.refused;
+    return -1;
+  }
+  const int64_t i = size_++;
+  x_[i] = px;
+  y_[i] = py;
+  z_[i] = pz;
+  nx_[i] = pnx;
+  ny_[i] = pny;
+  nz_[i] = pnz;
+  radius_[i] = pradius;
+  confidence_[i] = pconfidence;
+  color_[i] = pcolor;
+  init_time_[i] = frame;
+  last_seen_[i] = frame;
+  std::memset(labels_ + i * kLabelBytesPerSurfel, 0, kLabelBytesPerSurfel);
+  ++counters_.created;
+  return i;
+}
+
+void SurfelPool::copy_surfel(int64_t from, int64_t to) {
+  x_[to] = x_[from];
+  y_[to] = y_[from];
+  z_[to] = z_[from];
+  nx_[to] = nx_[from];
+  ny_[to] = ny_[from];
+  nz_[to] = nz_[from];
+  radius_[to] = radius_[from];
+  confidence_[to] = confidence_[from];
+  color_[to] = color_[from];
+  init_time_[to] = init_time_[from];
+  last_seen_[to] = last_seen_[from];
+  std::memcpy(labels_ + to * kLabelBytesPerSurfel, labels_ + from * kLabelBytesPerSurfel, kLabelBytesPerSurfel);
+}
+
+void SurfelPool::remove(int64_t id) {
+  const int64_t last = size_ - 1;
+  if (id != last) copy_surfel(last, id);
+  --size_;
+  ++counters_.removed;
+}
+
+void SurfelPool::evict(int64_t id) {
+  remove(id);
+  --counters_.removed;
+  ++counters_.evicted;
+}
+
+int64_t SurfelPool::remove_flagged(const uint8_t* flags) {
+  int64_t out = 0;
+  for (int64_t i = 0; i < size_; ++i) {
+    if (flags[i]) continue;
+    if (out != i) copy_surfel(i, out);
+    ++out;
+  }
+  const int64_t removed = size_ - out;
+  size_ = out;
+  counters_.removed += static_cast<uint64_t>(removed);
+  return removed;
+}
+
+int64_t SurfelPool::reserve_for_new(int64_t wanted, int32_t frame, float stable_confidence) {
+  if (wanted <= 0) return 0;
+  const int64_t room = options_.capacity - size_;
+  if (room >= wanted) return wanted;
+  const int64_t needed = wanted - room;
+
+  // Oldest first without sorting: histogram of the candidates' ages (frames since last seen, capped),
+  // then the smallest age threshold that yields `needed` candidates. Fixed-size, no allocation.
+  constexpr int kBuckets = 1024;
+  uint32_t histogram[kBuckets] = {};
+  const int32_t min_age = options_.evict_unseen_frames;
+  auto age_bucket = [&](int64_t i) {
+    const int64_t age = static_cast<int64_t>(frame) - last_seen_[i];
+    return static_cast<int>(std::min<int64_t>(age, kBuckets - 1));
+  };
+  int64_t candidates = 0;
+  for (int64_t i = 0; i < size_; ++i) {
+    if (confidence_[i] >= stable_confidence) continue;
+    const int b = age_bucket(i);
+    if (b < min_age) continue;
+    ++histogram[b];
+    ++candidates;
+  }
+  if (candidates == 0) return room;
+  int threshold = kBuckets - 1;
+  int64_t above = 0;
+  for (; threshold >= min_age; --threshold) {
+    above += histogram[threshold];
+    if (above >= needed) break;
+  }
+  threshold = std::max(threshold, static_cast<int>(min_age));
+
+  // Evict from high ids to low so that the surfel moved into a freed slot was already visited. Two
+  // passes: first every candidate strictly older than the threshold bucket (fewer than `needed`, so
+  // all of them go), then threshold-bucket ones until `needed`; a single pass in id order could
+  // spend the quota on threshold-age surfels with high ids and keep older ones with low ids.
+  int64_t evicted = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    const int min_bucket = pass == 0 ? threshold + 1 : threshold;
+    for (int64_t i = size_ - 1; i >= 0 && evicted < needed; --i) {
+      if (confidence_[i] >= stable_confidence) continue;
+      if (age_bucket(i) < min_bucket) continue;
+      evict(i);
+      ++evicted;
+    }
+  }
+  return room + evicted;
+}
+
+}  // namespace ef::slam

@@ -1,0 +1,129 @@
+#include "slam/surfel_slam.h"
+
+#include <algorithm>
+#include <chrono>
+#include <sstream>
+
+namespace ef::slam {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+}  // namespace
+
+Status SurfelSlamOptions::validate() const {
+  EF_RETURN_IF_ERROR(preprocess.validate());
+  EF_RETURN_IF_ERROR(tracker.validate());
+  EF_RETURN_IF_ERROR(prediction.validate());
+  EF_RETURN_IF_ERROR(fusion.validate());
+  EF_RETURN_IF_ERROR(pool.validate());
+  if (!(bootstrap_confidence_per_frame > 0.0f && bootstrap_confidence_per_frame <= 1.0f))
+    return error(ErrorCode::kInvalidArgument, "slam: bootstrap_confidence_per_frame " +
+                                                  std::to_string(bootstrap_confidence_per_frame) +
+                                                  " is outside (0, 1]");
+  return Status::success();
+}
+
+std::string SurfelSlamOptions::describe() const {
+  std::ostringstream s;
+  s << "# preprocess\n" << preprocess.describe() << "# tracker\n" << tracker.describe() << "# prediction\n"
+    << prediction.describe() << "# fusion\n" << fusion.describe() << "# pool\n" << pool.describe()
+    << "constant_velocity_guess: " << (constant_velocity_guess ? "true" : "false")
+    << "  # initial guess: last pose (false) or constant velocity (true)\n"
+    << "bootstrap_confidence_per_frame: " << bootstrap_confidence_per_frame
+    << "  # early tracking admits surfels with confidence >= this x frames fused\n";
+  return s.str();
+}
+
+Result<SurfelSlam> SurfelSlam::create(const Intrinsics& working, const SurfelSlamOptions& options) {
+  EF_RETURN_IF_ERROR(options.validate());
+  EF_ASSIGN_OR_RETURN(Preprocessor pre, Preprocessor::create(working, options.preprocess));
+  EF_ASSIGN_OR_RETURN(Tracker tracker, Tracker::create(working, options.preprocess.levels, options.tracker));
+  EF_ASSIGN_OR_RETURN(ModelPredictor predictor,
+                      ModelPredictor::create(working, options.preprocess.levels, options.prediction));
+  EF_ASSIGN_OR_RETURN(SurfelFusion fusion, SurfelFusion::create(working, options.prediction.index_map_scale,
+                                                                options.pool.capacity, options.fusion));
+  EF_ASSIGN_OR_RETURN(SurfelPool pool, SurfelPool::create(options.pool));
+  SurfelSlam slam(options, std::move(pre), std::move(tracker), std::move(predictor), std::move(fusion),
+                  std::move(pool));
+  slam.T_world_last_ = options.initial_pose;
+  // An empty index map at the initial pose: the first frame finds no candidates and creates surfels.
+  EF_RETURN_IF_ERROR(slam.predictor_.predict(slam.pool_, slam.T_world_last_, 0, options.prediction.stable_confidence));
+  return slam;
+}
+
+float SurfelSlam::tracking_min_confidence() const {
+  const float ramp = options_.bootstrap_confidence_per_frame * static_cast<float>(fused_frames_);
+  return std::min(options_.prediction.stable_confidence, ramp);
+}
+
+Status SurfelSlam::process(const Frame& frame, SlamFrameResult* result) {
+  const Clock::time_point t_start = Clock::now();
+  *result = SlamFrameResult{};
+  const auto frame_index = static_cast<int32_t>(frames_);
+
+  Clock::time_point t0 = Clock::now();
+  EF_RETURN_IF_ERROR(pre_.process(frame));
+  result->timings.preprocess_ms = ms_since(t0);
+
+  // Track against the model predicted at the last good pose (none for the first frame).
+  SE3 T_world_cur = T_world_last_;
+  if (fused_frames_ > 0) {
+    const SE3 guess = options_.constant_velocity_guess ? last_motion_ : SE3();
+    t0 = Clock::now();
+    EF_RETURN_IF_ERROR(tracker_.track(predictor_.pyramid_view(), pyramid_view(pre_), guess, &result->track));
+    result->timings.track_ms = ms_since(t0);
+    if (result->track.lost) {
+      result->lost = true;
+      ++lost_frames_;
+    } else {
+      T_world_cur = T_world_last_ * result->track.T_ref_cur;
+    }
+  } else {
+    result->track.lost = false;
+    result->track.reason = TrackLostReason::kNone;
+  }
+  result->T_world_cam = T_world_cur;
+
+  if (!result->lost) {
+    // Fuse through the index map rendered at the last good pose, then predict at the new pose.
+    t0 = Clock::now();
+    EF_RETURN_IF_ERROR(fusion_.fuse(pre_, frame.color.view(), T_world_cur, predictor_.index_map(), frame_index,
+                                    &pool_, &result->fusion));
+    result->timings.fuse_ms = ms_since(t0);
+    result->fused = true;
+    ++fused_frames_;
+    if (frames_ > 0) last_motion_ = result->track.T_ref_cur;
+    T_world_last_ = T_world_cur;
+
+    t0 = Clock::now();
+    EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_world_cur, frame_index, tracking_min_confidence()));
+    result->timings.predict_ms = ms_since(t0);
+  }
+  ++frames_;
+  result->timings.total_ms = ms_since(t_start);
+  return Status::success();
+}
+
+SurfelCloudView surfel_cloud_view(const SurfelPool& pool) {
+  SurfelCloudView v;
+  v.count = static_cast<std::size_t>(pool.size());
+  v.x = pool.x();
+  v.y = pool.y();
+  v.z = pool.z();
+  v.nx = pool.nx();
+  v.ny = pool.ny();
+  v.nz = pool.nz();
+  // Packed R | G << 8 | B << 16 in a little-endian word (x86-64 and AArch64 Linux): bytes R, G, B.
+  const auto* bytes = reinterpret_cast<const uint8_t*>(pool.color());
+  v.red = {bytes + 0, sizeof(uint32_t)};
+  v.green = {bytes + 1, sizeof(uint32_t)};
+  v.blue = {bytes + 2, sizeof(uint32_t)};
+  v.radius = pool.radius();
+  v.confidence = pool.confidence();
+  return v;
+}
+
+}  // namespace ef::slam

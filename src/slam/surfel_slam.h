@@ -1,0 +1,116 @@
+// The geometric core of the mapper: one object that takes frames at the working resolution and
+// keeps the camera pose and the surfel map, ElasticFusion-style (Whelan et al., RSS 2015):
+//
+//   frame k ──preprocess──> pyramids (slam/preprocess.h)
+//           ──track──────> T_world_cam(k), frame-to-model: the reference is the model predicted at
+//                          the pose of the last tracked frame (slam/model_prediction.h), the guess
+//                          is "no motion" (ElasticFusion) or constant velocity (option)
+//           ──fuse───────> the surfel pool (slam/surfel_fusion.h), associating through the index map
+//                          rendered at the last tracked pose (no second render per frame)
+//           ──predict────> model maps + index map at T_world_cam(k), for frame k+1
+//
+// A lost frame (TrackResult::lost) is not fused and does not move the prediction: the next frame is
+// tracked against the same model view, with the last good pose as the guess. Its reported pose is
+// the last good pose. The first frame is fused at `initial_pose` (identity by default).
+//
+// Memory: create() sizes everything from the options (pool capacity, working resolution);
+// process() does not touch the heap. Threads: one SurfelSlam per mapping thread.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/frame.h"
+#include "core/intrinsics.h"
+#include "core/result.h"
+#include "core/se3.h"
+#include "io/ply_writer.h"
+#include "slam/model_prediction.h"
+#include "slam/preprocess.h"
+#include "slam/surfel_fusion.h"
+#include "slam/surfel_pool.h"
+#include "slam/tracker.h"
+
+namespace ef::slam {
+
+struct SurfelSlamOptions {
+  PreprocessOptions preprocess;
+  TrackerOptions tracker;
+  PredictionOptions prediction;
+  FusionOptions fusion;
+  SurfelPoolOptions pool;
+  // Pose of the first frame, camera to world (metres). Default identity.
+  SE3 initial_pose;
+  // Initial guess of each frame's pose: false = the last tracked pose (ElasticFusion), true = the last
+  // pose times the last inter-frame motion (constant velocity).
+  bool constant_velocity_guess = false;
+  // Until surfels can reach the stable confidence (it takes about that many observations), the
+  // tracking prediction admits surfels with confidence >= this fraction of the frames fused so far
+  // (dimensionless, 0..1], capped at the stable threshold. 0.5: a surfel seen in half the frames.
+  float bootstrap_confidence_per_frame = 0.5f;
+
+  Status validate() const;
+  std::string describe() const;
+};
+
+// Milliseconds per stage of the last process() call (steady clock).
+struct SlamTimings {
+  double preprocess_ms = 0, track_ms = 0, fuse_ms = 0, predict_ms = 0, total_ms = 0;
+};
+
+struct SlamFrameResult {
+  SE3 T_world_cam;       // the frame's pose (the last good pose when lost)
+  bool lost = false;     // tracking failed: not fused (track.reason says why)
+  bool fused = false;
+  TrackResult track;     // meaningless for the first frame (nothing to track against)
+  FusionStats fusion;    // zero when not fused
+  SlamTimings timings;
+};
+
+class SurfelSlam {
+ public:
+  // working: intrinsics of the frames process() will get (the working resolution).
+  static Result<SurfelSlam> create(const Intrinsics& working, const SurfelSlamOptions& options = {});
+
+  // Processes one frame at the working resolution (depth in metres, colour optional).
+  // Errors (kInvalidArgument): a frame of another size. Lost tracking is not an error.
+  Status process(const Frame& frame, SlamFrameResult* result);
+
+  const SurfelPool& pool() const { return pool_; }
+  const SE3& pose() const { return T_world_last_; }  // last good pose
+  int64_t frames() const { return frames_; }
+  int64_t lost_frames() const { return lost_frames_; }
+  const SurfelSlamOptions& options() const { return options_; }
+  const ModelPredictor& predictor() const { return predictor_; }
+
+  // Bytes allocated by create(), by part (for the memory budget).
+  std::size_t pool_bytes() const { return pool_.bytes(); }
+
+ private:
+  SurfelSlam(SurfelSlamOptions options, Preprocessor pre, Tracker tracker, ModelPredictor predictor,
+             SurfelFusion fusion, SurfelPool pool)
+      : options_(std::move(options)),
+        pre_(std::move(pre)),
+        tracker_(std::move(tracker)),
+        predictor_(std::move(predictor)),
+        fusion_(std::move(fusion)),
+        pool_(std::move(pool)) {}
+  float tracking_min_confidence() const;
+
+  SurfelSlamOptions options_;
+  Preprocessor pre_;
+  Tracker tracker_;
+  ModelPredictor predictor_;
+  SurfelFusion fusion_;
+  SurfelPool pool_;
+  SE3 T_world_last_;         // pose of the last good frame = the pose the prediction was rendered at
+  SE3 last_motion_;          // T_prev_cur of the last good frame pair (constant velocity guess)
+  int64_t frames_ = 0;
+  int64_t fused_frames_ = 0;
+  int64_t lost_frames_ = 0;
+};
+
+// A view of the pool for io/ply_writer.h (colours from the packed column; no labels yet).
+SurfelCloudView surfel_cloud_view(const SurfelPool& pool);
+
+}  // namespace ef::slam

@@ -1,0 +1,270 @@
+// The whole SLAM core (preprocess, frame-to-model tracking, fusion, prediction) on synthetic
+// sequences with exact poses, a frame of another scene, a tiny pool, and zero allocations per frame.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <vector>
+
+#include "core/alloc_counter.h"
+#include "core/frame.h"
+#include "eval/trajectory_eval.h"
+#include "io/frame_resample.h"
+#include "slam/surfel_slam.h"
+#include "sources/open_source.h"
+#include "test_support.h"
+
+namespace ef::slam {
+namespace {
+
+// Runs `frames` frames of `uri` through a SurfelSlam; returns estimated and reference trajectories.
+struct RunOutput {
+  std::vector<TimedPose> estimate, reference;
+  int64_t lost = 0;
+  int64_t surfels = 0;
+};
+
+RunOutput run_sequence(const std::string& uri, int max_frames, const SurfelSlamOptions& options, bool verbose = false) {
+  RunOutput out;
+  auto src = open_source(uri);
+  EXPECT_TRUE(src.ok()) << to_string(src.error());
+  if (!src.ok()) return out;
+  const SourceInfo& info = (*src)->info();
+  // At the working resolution, as `edgefusion run` does.
+  Frame input, frame;
+  input.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
+  frame.allocate(320, 240, info.has_labels);
+  auto slam = SurfelSlam::create(info.intrinsics.scaled_to(320, 240), options);
+  EXPECT_TRUE(slam.ok()) << to_string(slam.error());
+  if (!slam.ok()) return out;
+  SlamFrameResult r;
+  SE3 first_reference;
+  while (static_cast<int>(out.estimate.size()) < max_frames) {
+    auto got = (*src)->next(input);
+    EXPECT_TRUE(got.ok());
+    if (!got.ok() || !*got) break;
+    resample_frame(input, frame);
+    EXPECT_TRUE(slam->process(frame, &r).ok());
+    if (out.reference.empty()) first_reference = frame.T_wc;
+    if (verbose) {
+      // Error of the pose relative to the first frame (the estimate starts at identity).
+      const SE3 err = (first_reference.inverse() * frame.T_wc).inverse() * r.T_world_cam;
+      std::printf("frame %3lld lost %d (%s) icp_rms %.4f inl %lld/%lld rgb %.1f cond %.0f it %d | surfels %lld new %lld "
+                  "fused %lld | pose err %.4f m | ms pre %.1f trk %.1f fuse %.1f pred %.1f\n",
+                  static_cast<long long>(frame.index), r.lost, track_lost_reason_name(r.track.reason),
+                  r.track.icp_rms_m, static_cast<long long>(r.track.icp_inliers),
+                  static_cast<long long>(r.track.valid_current), r.track.rgb_rms_grey, r.track.condition,
+                  r.track.iterations, static_cast<long long>(slam->pool().size()),
+                  static_cast<long long>(r.fusion.new_surfels), static_cast<long long>(r.fusion.fused_pixels),
+                  err.translation().norm(), r.timings.preprocess_ms, r.timings.track_ms, r.timings.fuse_ms,
+                  r.timings.predict_ms);
+    }
+    out.estimate.push_back({frame.timestamp, r.T_world_cam});
+    out.reference.push_back({frame.timestamp, frame.T_wc});
+  }
+  out.lost = slam->lost_frames();
+  out.surfels = slam->pool().size();
+  return out;
+}
+
+double ate_rmse(const RunOutput& o) {
+  Trajectory gt{"reference", o.reference}, est{"estimate", o.estimate};
+  auto ate = evaluate_ate(gt, est);
+  EXPECT_TRUE(ate.ok());
+  return ate.ok() ? ate->rmse_m : 1e9;
+}
+
+TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
+  // 60 frames of a 1000-frame loop: the motion of a hand-held camera at 30 Hz.
+  const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", 60, {}, true);
+  ASSERT_EQ(o.estimate.size(), 60u);
+  EXPECT_EQ(o.lost, 0);
+  EXPECT_LT(ate_rmse(o), 0.005);  // metres
+  EXPECT_GT(o.surfels, 30000);
+}
+
+TEST(SurfelSlam, DISABLED_Debug) {
+  const char* uri = std::getenv("EF_DEBUG_URI");
+  const char* n = std::getenv("EF_DEBUG_FRAMES");
+  SurfelSlamOptions opt;
+  if (const char* v = std::getenv("EF_DEBUG_RMS")) opt.tracker.lost_max_icp_rms_m = std::atof(v);
+  if (const char* v = std::getenv("EF_DEBUG_RGB")) opt.tracker.rgb_weight = std::atof(v);
+  if (const char* v = std::getenv("EF_DEBUG_WINDOW")) opt.prediction.active_window_frames = std::atoi(v);
+  if (const char* v = std::getenv("EF_DEBUG_STABLE")) {
+    opt.prediction.stable_confidence = static_cast<float>(std::atof(v));
+    opt.fusion.stable_confidence = static_cast<float>(std::atof(v));
+  }
+  if (const char* v = std::getenv("EF_DEBUG_ICPGATE")) opt.tracker.icp_max_normal_angle_deg = static_cast<float>(std::atof(v));
+  if (const char* v = std::getenv("EF_DEBUG_SO3")) opt.tracker.so3_prealign = std::atoi(v) != 0;
+  if (const char* v = std::getenv("EF_DEBUG_CUTOFF")) opt.preprocess.depth_cutoff_m = static_cast<float>(std::atof(v));
+  if (const char* v = std::getenv("EF_DEBUG_CV")) opt.constant_velocity_guess = std::atoi(v) != 0;
+  if (const char* v = std::getenv("EF_DEBUG_FILTERED")) opt.fusion.fuse_raw_depth = std::atoi(v) == 0;
+  const RunOutput o = run_sequence(uri ? uri : "synthetic:?frames=1000", n ? std::atoi(n) : 20, opt, true);
+  std::printf("ate %.4f m lost %lld\n", ate_rmse(o), static_cast<long long>(o.lost));
+}
+
+// Frames of one source at the working resolution, on demand.
+class WorkingFrames {
+ public:
+  explicit WorkingFrames(const std::string& uri) {
+    auto src = open_source(uri);
+    EXPECT_TRUE(src.ok()) << to_string(src.error());
+    if (!src.ok()) return;
+    src_ = std::move(*src);
+    input_.allocate(src_->info().intrinsics.width, src_->info().intrinsics.height, src_->info().has_labels);
+    frame_.allocate(320, 240, src_->info().has_labels);
+  }
+  Intrinsics intrinsics() const { return src_->info().intrinsics.scaled_to(320, 240); }
+  const Frame* next() {
+    auto got = src_->next(input_);
+    if (!got.ok() || !*got) return nullptr;
+    resample_frame(input_, frame_);
+    return &frame_;
+  }
+
+ private:
+  std::unique_ptr<FrameSource> src_;
+  Frame input_, frame_;
+};
+
+// FNV-1a over every column of the pool's live surfels: "the map is untouched".
+uint64_t pool_hash(const SurfelPool& p) {
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const void* data, std::size_t bytes) {
+    const auto* b = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  const auto n = static_cast<std::size_t>(p.size());
+  for (const float* c : {p.x(), p.y(), p.z(), p.nx(), p.ny(), p.nz(), p.radius(), p.confidence()}) mix(c, n * 4);
+  mix(p.color(), n * 4);
+  mix(p.init_time(), n * 4);
+  mix(p.last_seen(), n * 4);
+  mix(p.labels(), n * SurfelPool::kLabelBytesPerSurfel);
+  mix(&n, sizeof n);
+  return h;
+}
+
+TEST(SurfelSlam, FrameOfAnotherSceneIsLostAndLeavesTheMapUntouched) {
+  WorkingFrames office("synthetic:office?noise=1&frames=1000&size=320x240");
+  WorkingFrames kitchen("synthetic:kitchen?noise=1&frames=1000&size=320x240&seed=5");
+  auto slam = SurfelSlam::create(office.intrinsics());
+  ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+  SlamFrameResult r;
+  for (int i = 0; i < 15; ++i) {
+    const Frame* f = office.next();
+    ASSERT_NE(f, nullptr);
+    ASSERT_TRUE(slam->process(*f, &r).ok());
+    ASSERT_FALSE(r.lost) << "frame " << i << ": " << track_lost_reason_name(r.track.reason);
+  }
+  const uint64_t before = pool_hash(slam->pool());
+  const SE3 pose_before = slam->pose();
+  const Frame* other = kitchen.next();
+  ASSERT_NE(other, nullptr);
+  ASSERT_TRUE(slam->process(*other, &r).ok());
+  EXPECT_TRUE(r.lost);
+  EXPECT_FALSE(r.fused);
+  EXPECT_EQ(slam->lost_frames(), 1);
+  EXPECT_EQ(pool_hash(slam->pool()), before);
+  EXPECT_LT((r.T_world_cam.translation() - pose_before.translation()).norm(), 1e-12);  // the last good pose
+
+  // The office again: tracked against the same model, and mapping goes on.
+  const Frame* f = office.next();
+  ASSERT_NE(f, nullptr);
+  ASSERT_TRUE(slam->process(*f, &r).ok());
+  EXPECT_FALSE(r.lost) << track_lost_reason_name(r.track.reason);
+  EXPECT_TRUE(r.fused);
+}
+
+TEST(SurfelSlam, TinyPoolFillsUpAndCountsRefusedSurfels) {
+  WorkingFrames office("synthetic:office?noise=1&frames=1000&size=320x240");
+  SurfelSlamOptions options;
+  options.pool.capacity = 20000;  // a third of one frame's pixels
+  auto slam = SurfelSlam::create(office.intrinsics(), options);
+  ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+  SlamFrameResult r;
+  int64_t refused = 0;
+  for (int i = 0; i < 12; ++i) {
+    const Frame* f = office.next();
+    ASSERT_NE(f, nullptr);
+    ASSERT_TRUE(slam->process(*f, &r).ok());
+    refused += r.fusion.refused;
+    EXPECT_LE(slam->pool().size(), 20000);
+  }
+  EXPECT_EQ(slam->pool().size(), 20000);
+  EXPECT_GT(refused, 0);
+  EXPECT_EQ(static_cast<uint64_t>(refused), slam->pool().counters().refused);
+  // Created = live + removed + evicted: every surfel is accounted for.
+  const SurfelPoolCounters& c = slam->pool().counters();
+  EXPECT_EQ(c.created, static_cast<uint64_t>(slam->pool().size()) + c.removed + c.evicted);
+}
+
+TEST(SurfelSlam, NoHeapAllocationPerFrameAfterWarmUp) {
+  WorkingFrames office("synthetic:office?noise=1&frames=1000&size=320x240");
+  auto slam = SurfelSlam::create(office.intrinsics());
+  ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+  SlamFrameResult r;
+  constexpr int kWarmUp = 3, kMeasured = 10;
+  std::vector<Frame> frames(kMeasured);
+  for (int i = 0; i < kWarmUp; ++i) {
+    const Frame* f = office.next();
+    ASSERT_NE(f, nullptr);
+    ASSERT_TRUE(slam->process(*f, &r).ok());
+  }
+  for (Frame& copy : frames) {  // decoded beforehand: the source may allocate, SLAM must not
+    const Frame* f = office.next();
+    ASSERT_NE(f, nullptr);
+    copy = *f;
+  }
+  test::AllocationCounter count;
+  for (const Frame& f : frames) ASSERT_TRUE(slam->process(f, &r).ok());
+  EXPECT_EQ(count.thread_allocations(), 0u);
+  EXPECT_EQ(slam->lost_frames(), 0);
+}
+
+// Frame-to-frame chaining with the same tracker, for comparison with frame-to-model.
+TEST(SurfelSlam, DISABLED_DebugFrameToFrame) {
+  const char* uri = std::getenv("EF_DEBUG_URI");
+  const char* n = std::getenv("EF_DEBUG_FRAMES");
+  const int frames = n ? std::atoi(n) : 20;
+  auto src = open_source(uri ? uri : "synthetic:?frames=1000");
+  ASSERT_TRUE(src.ok());
+  const SourceInfo& info = (*src)->info();
+  const Intrinsics K = info.intrinsics.scaled_to(320, 240);
+  Frame input, frame;
+  input.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
+  frame.allocate(320, 240, info.has_labels);
+  auto a = Preprocessor::create(K), b = Preprocessor::create(K);
+  TrackerOptions to;
+  if (const char* v = std::getenv("EF_DEBUG_RGB")) to.rgb_weight = std::atof(v);
+  auto tracker = Tracker::create(K, 3, to);
+  ASSERT_TRUE(a.ok() && b.ok() && tracker.ok());
+  Preprocessor* prev = &*a;
+  Preprocessor* cur = &*b;
+  RunOutput out;
+  SE3 pose, first;
+  for (int i = 0; i < frames; ++i) {
+    auto got = (*src)->next(input);
+    if (!got.ok() || !*got) break;
+    resample_frame(input, frame);
+    ASSERT_TRUE(cur->process(frame).ok());
+    if (i == 0) first = frame.T_wc;
+    if (i > 0) {
+      TrackResult r;
+      ASSERT_TRUE(tracker->track(pyramid_view(*prev), pyramid_view(*cur), SE3(), &r).ok());
+      pose = pose * r.T_ref_cur;
+    }
+    out.estimate.push_back({frame.timestamp, pose});
+    out.reference.push_back({frame.timestamp, frame.T_wc});
+    if (i % 20 == 1) {
+      const SE3 err = (first.inverse() * frame.T_wc).inverse() * pose;
+      std::printf("frame %d pose err %.4f m\n", i, err.translation().norm());
+    }
+    std::swap(prev, cur);
+  }
+  std::printf("f2f ate %.4f m\n", ate_rmse(out));
+}
+
+}  // namespace
+}  // namespace ef::slam
