@@ -34,7 +34,7 @@ std::string RunConfig::describe() const {
     << "progress: " << (progress ? "true" : "false") << "      # progress line on stderr; default true\n"
     << "surfel_capacity: " << surfel_capacity << "  # surfels in the map's pool (fixed at start-up); default 1000000\n"
     << "icp_weight: " << icp_weight << "          # tracking: weight of the ICP term, >= 0; default 10\n"
-    << "rgb_weight: " << rgb_weight << "           # tracking: weight of the photometric term, >= 0; default 1\n"
+    << "rgb_weight: " << rgb_weight << "           # tracking: weight of the photometric term, >= 0; default 0.25\n"
     << "depth_cutoff_m: " << depth_cutoff_m << "       # metres; depths beyond are ignored; default 8\n"
     << "map: " << (write_map ? "true" : "false") << "           # write map.ply; default true\n";
   return o.str();

@@ -23,7 +23,7 @@ struct RunConfig {
   // Mapping (slam/surfel_slam.h). Defaults are ElasticFusion's / SemanticFusion's.
   int64_t surfel_capacity = 1'000'000;  // surfels in the pool, allocated at start-up
   double icp_weight = 10.0;             // tracking: relative weight of the ICP term (>= 0)
-  double rgb_weight = 1.0;              // tracking: relative weight of the photometric term (>= 0)
+  double rgb_weight = 0.25;             // tracking: relative weight of the photometric term (>= 0)
   float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres
   bool write_map = true;                // write map.ply at the end of the run
 

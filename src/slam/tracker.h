@@ -155,8 +155,12 @@ struct TrackerOptions {
   float icp_max_normal_angle_deg = 20.0f;
 
   // --- photometric ---
-  // Relative weight of the RGB term (dimensionless, >= 0; 0 = ICP only).
-  double rgb_weight = 1.0;
+  // Relative weight of the RGB term (dimensionless, >= 0; 0 = ICP only). 0.25, i.e. ICP:RGB = 40
+  // (ElasticFusion: 10), measured frame to model with the depth-weighted ICP: 7-Scenes 1000 frames
+  // ATE 2.77 cm at 0.25 against 3.58 cm at 1; 400 frames 2.30 / 2.42 cm (0.1: 2.32); the synthetic
+  // 1000-frame loop with noise 5.3 mm at 0.25. 7-Scenes colour is not registered to its depth, and
+  // the synthetic rooms are weakly textured: geometry is the better-conditioned term in both.
+  double rgb_weight = 0.25;
   // Normalising scale of the intensity residual, grey levels (0..255 scale, > 0).
   double rgb_sigma_grey = 10.0;
   // Huber threshold in units of rgb_sigma_grey (> 0): residuals beyond it get weight k / |r|.
