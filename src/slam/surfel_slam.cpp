@@ -19,6 +19,15 @@ Status SurfelSlamOptions::validate() const {
   EF_RETURN_IF_ERROR(prediction.validate());
   EF_RETURN_IF_ERROR(fusion.validate());
   EF_RETURN_IF_ERROR(pool.validate());
+  if (fusion.stable_confidence != prediction.stable_confidence)
+    return error(ErrorCode::kInvalidArgument,
+                 "slam: fusion.stable_confidence " + std::to_string(fusion.stable_confidence) +
+                     " differs from prediction.stable_confidence " + std::to_string(prediction.stable_confidence) +
+                     " (one threshold decides which surfels are stable)");
+  if (fusion.normal_level >= preprocess.levels)
+    return error(ErrorCode::kInvalidArgument, "slam: fusion.normal_level " + std::to_string(fusion.normal_level) +
+                                                  " needs preprocess.levels > it (levels " +
+                                                  std::to_string(preprocess.levels) + ")");
   if (!(bootstrap_confidence_per_frame > 0.0f && bootstrap_confidence_per_frame <= 1.0f))
     return error(ErrorCode::kInvalidArgument, "slam: bootstrap_confidence_per_frame " +
                                                   std::to_string(bootstrap_confidence_per_frame) +

@@ -4,7 +4,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <memory>
 #include <vector>
 
@@ -77,32 +76,38 @@ double ate_rmse(const RunOutput& o) {
 }
 
 TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
-  // 60 frames of a 1000-frame loop: the motion of a hand-held camera at 30 Hz.
-  const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", 60, {}, true);
-  ASSERT_EQ(o.estimate.size(), 60u);
+  // 60 frames of a 1000-frame loop: the motion of a hand-held camera at 30 Hz. Under qemu-user
+  // (about 1 s a frame with the rendering) 30 frames: the same checks over half the motion.
+#ifdef EF_TESTS_UNDER_EMULATOR
+  constexpr int kFrames = 30;
+#else
+  constexpr int kFrames = 60;
+#endif
+  const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", kFrames, {}, true);
+  ASSERT_EQ(o.estimate.size(), static_cast<std::size_t>(kFrames));
   EXPECT_EQ(o.lost, 0);
   EXPECT_LT(ate_rmse(o), 0.005);  // metres
   EXPECT_GT(o.surfels, 30000);
 }
 
-TEST(SurfelSlam, DISABLED_Debug) {
-  const char* uri = std::getenv("EF_DEBUG_URI");
-  const char* n = std::getenv("EF_DEBUG_FRAMES");
-  SurfelSlamOptions opt;
-  if (const char* v = std::getenv("EF_DEBUG_RMS")) opt.tracker.lost_max_icp_rms_m = std::atof(v);
-  if (const char* v = std::getenv("EF_DEBUG_RGB")) opt.tracker.rgb_weight = std::atof(v);
-  if (const char* v = std::getenv("EF_DEBUG_WINDOW")) opt.prediction.active_window_frames = std::atoi(v);
-  if (const char* v = std::getenv("EF_DEBUG_STABLE")) {
-    opt.prediction.stable_confidence = static_cast<float>(std::atof(v));
-    opt.fusion.stable_confidence = static_cast<float>(std::atof(v));
-  }
-  if (const char* v = std::getenv("EF_DEBUG_ICPGATE")) opt.tracker.icp_max_normal_angle_deg = static_cast<float>(std::atof(v));
-  if (const char* v = std::getenv("EF_DEBUG_SO3")) opt.tracker.so3_prealign = std::atoi(v) != 0;
-  if (const char* v = std::getenv("EF_DEBUG_CUTOFF")) opt.preprocess.depth_cutoff_m = static_cast<float>(std::atof(v));
-  if (const char* v = std::getenv("EF_DEBUG_CV")) opt.constant_velocity_guess = std::atoi(v) != 0;
-  if (const char* v = std::getenv("EF_DEBUG_FILTERED")) opt.fusion.fuse_raw_depth = std::atoi(v) == 0;
-  const RunOutput o = run_sequence(uri ? uri : "synthetic:?frames=1000", n ? std::atoi(n) : 20, opt, true);
-  std::printf("ate %.4f m lost %lld\n", ate_rmse(o), static_cast<long long>(o.lost));
+TEST(SurfelSlam, InvalidOptionsAreRejectedNamingTheField) {
+  const Intrinsics K = Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(320, 240);
+  SurfelSlamOptions o;
+  EXPECT_TRUE(o.validate().ok());
+  o.fusion.stable_confidence = 5.0f;  // prediction keeps 10
+  auto r = SurfelSlam::create(K, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("stable_confidence"), std::string::npos) << r.error().message;
+  o = {};
+  o.preprocess.levels = 1;  // fusion reads normals of level 1
+  r = SurfelSlam::create(K, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("normal_level"), std::string::npos) << r.error().message;
+  o = {};
+  o.pool.capacity = 0;
+  r = SurfelSlam::create(K, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().message.find("capacity"), std::string::npos) << r.error().message;
 }
 
 // Frames of one source at the working resolution, on demand.
@@ -221,49 +226,6 @@ TEST(SurfelSlam, NoHeapAllocationPerFrameAfterWarmUp) {
   for (const Frame& f : frames) ASSERT_TRUE(slam->process(f, &r).ok());
   EXPECT_EQ(count.thread_allocations(), 0u);
   EXPECT_EQ(slam->lost_frames(), 0);
-}
-
-// Frame-to-frame chaining with the same tracker, for comparison with frame-to-model.
-TEST(SurfelSlam, DISABLED_DebugFrameToFrame) {
-  const char* uri = std::getenv("EF_DEBUG_URI");
-  const char* n = std::getenv("EF_DEBUG_FRAMES");
-  const int frames = n ? std::atoi(n) : 20;
-  auto src = open_source(uri ? uri : "synthetic:?frames=1000");
-  ASSERT_TRUE(src.ok());
-  const SourceInfo& info = (*src)->info();
-  const Intrinsics K = info.intrinsics.scaled_to(320, 240);
-  Frame input, frame;
-  input.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
-  frame.allocate(320, 240, info.has_labels);
-  auto a = Preprocessor::create(K), b = Preprocessor::create(K);
-  TrackerOptions to;
-  if (const char* v = std::getenv("EF_DEBUG_RGB")) to.rgb_weight = std::atof(v);
-  auto tracker = Tracker::create(K, 3, to);
-  ASSERT_TRUE(a.ok() && b.ok() && tracker.ok());
-  Preprocessor* prev = &*a;
-  Preprocessor* cur = &*b;
-  RunOutput out;
-  SE3 pose, first;
-  for (int i = 0; i < frames; ++i) {
-    auto got = (*src)->next(input);
-    if (!got.ok() || !*got) break;
-    resample_frame(input, frame);
-    ASSERT_TRUE(cur->process(frame).ok());
-    if (i == 0) first = frame.T_wc;
-    if (i > 0) {
-      TrackResult r;
-      ASSERT_TRUE(tracker->track(pyramid_view(*prev), pyramid_view(*cur), SE3(), &r).ok());
-      pose = pose * r.T_ref_cur;
-    }
-    out.estimate.push_back({frame.timestamp, pose});
-    out.reference.push_back({frame.timestamp, frame.T_wc});
-    if (i % 20 == 1) {
-      const SE3 err = (first.inverse() * frame.T_wc).inverse() * pose;
-      std::printf("frame %d pose err %.4f m\n", i, err.translation().norm());
-    }
-    std::swap(prev, cur);
-  }
-  std::printf("f2f ate %.4f m\n", ate_rmse(out));
 }
 
 }  // namespace
