@@ -1,6 +1,9 @@
 // Model prediction: index map and tracking maps rendered from the surfel pool; see model_prediction.h.
 #include "slam/model_prediction.h"
 
+#include "core/stopwatch.h"
+#include "slam/preprocess.h"
+
 #include "kernels/splat_disc.h"
 
 #include <algorithm>
@@ -23,18 +26,11 @@ constexpr float kMaxSplatCapPx = 64.0f;
 constexpr int kBlock = 256;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point& t) {
-  const Clock::time_point now = Clock::now();
-  const double ms = std::chrono::duration<double, std::milli>(now - t).count();
-  t = now;
-  return ms;
-}
+using Clock = SteadyClock;
 
 // Grey level 0..255 of a packed sRGB colour (weights of slam/preprocess.h).
 inline float grey(uint32_t c) {
-  return 0.299f * static_cast<float>(unpack_r(c)) + 0.587f * static_cast<float>(unpack_g(c)) +
-         0.114f * static_cast<float>(unpack_b(c));
+  return grey_level(unpack_r(c), unpack_g(c), unpack_b(c));
 }
 
 }  // namespace
@@ -174,12 +170,12 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
   counters_ = PredictionCounters{};
   index_map_.T_world_cam = T_world_cam;
   clear();
-  timings_.clear_ms = ms_since(t);
+  timings_.clear_ms = lap_ms(t);
   render(pool, pose);
   index_map_.surfels_drawn = counters_.index_surfels;
-  timings_.render_ms = ms_since(t);
+  timings_.render_ms = lap_ms(t);
   resolve(pool, pose);
-  timings_.resolve_ms = ms_since(t);
+  timings_.resolve_ms = lap_ms(t);
   for (int l = 0; l < levels_; ++l) {
     if (l > 0) {
       downsample_depth(l);
@@ -189,7 +185,7 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
     gradients(l);
     fill_holes(l);
   }
-  timings_.pyramid_ms = ms_since(t);
+  timings_.pyramid_ms = lap_ms(t);
   timings_.total_ms = std::chrono::duration<double, std::milli>(t - start).count();
   return Status::success();
 }

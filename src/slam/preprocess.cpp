@@ -1,6 +1,8 @@
 // Preprocessing of a working-resolution RGB-D frame; see preprocess.h for the conventions.
 #include "slam/preprocess.h"
 
+#include "core/stopwatch.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,13 +16,7 @@ constexpr int kMaxLevels = 6;
 constexpr int kMinCoarsestSize = 8;  // pixels, both dimensions
 constexpr float kPi = 3.14159265358979f;
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point& t) {
-  const Clock::time_point now = Clock::now();
-  const double ms = std::chrono::duration<double, std::milli>(now - t).count();
-  t = now;
-  return ms;
-}
+using Clock = SteadyClock;
 
 // exp(-t) for t >= 0 approximated by (1 + t/8)^-8 (u = 1 + t/8 is passed in): at most 0.03 away
 // from exp(-t), positive, and below 1e-10 for the t of a 0.5 m step at sigma 3 cm (t ~ 139). No
@@ -116,16 +112,16 @@ Status Preprocessor::process(ImageView<const float> depth, ImageView<const Rgb8>
   const Clock::time_point start = t;
   cut_off_and_pad(depth);
   bilateral();
-  timings_.bilateral_ms = ms_since(t);
+  timings_.bilateral_ms = lap_ms(t);
   for (int l = 1; l < options_.levels; ++l) downsample_depth(l);
-  timings_.depth_pyramid_ms = ms_since(t);
+  timings_.depth_pyramid_ms = lap_ms(t);
   for (int l = 0; l < options_.levels; ++l) vertex_normal(l);
-  timings_.vertex_normal_ms = ms_since(t);
+  timings_.vertex_normal_ms = lap_ms(t);
   has_intensity_ = !color.empty();
   grey(color);
   for (int l = 1; l < options_.levels; ++l) downsample_intensity(l);
   for (int l = 0; l < options_.levels; ++l) gradients(l);
-  timings_.intensity_ms = ms_since(t);
+  timings_.intensity_ms = lap_ms(t);
   timings_.total_ms = std::chrono::duration<double, std::milli>(t - start).count();
   return Status::success();
 }
@@ -311,7 +307,7 @@ void Preprocessor::grey(ImageView<const Rgb8> color) {
     const Rgb8* c = color.row(y);
     float* o = I.data() + static_cast<std::size_t>(y) * I.width();
     for (int x = 0; x < I.width(); ++x)
-      o[x] = 0.299f * static_cast<float>(c[x].r) + 0.587f * static_cast<float>(c[x].g) + 0.114f * static_cast<float>(c[x].b);
+      o[x] = grey_level(c[x].r, c[x].g, c[x].b);
   }
 }
 

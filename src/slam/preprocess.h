@@ -82,6 +82,11 @@ struct PyramidLevel {
   Image<float> grad_x, grad_y;    // Sobel / 8 of `intensity`, borders replicated
 };
 
+// Grey level 0..255 of an 8-bit sRGB colour, the weights of `intensity` above.
+inline float grey_level(uint8_t r, uint8_t g, uint8_t b) {
+  return 0.299f * static_cast<float>(r) + 0.587f * static_cast<float>(g) + 0.114f * static_cast<float>(b);
+}
+
 inline bool valid_vertex(const Eigen::Vector3f& v) { return v.z() > 0.0f; }
 inline bool valid_normal(const Eigen::Vector3f& n) { return n.x() != 0.0f || n.y() != 0.0f || n.z() != 0.0f; }
 

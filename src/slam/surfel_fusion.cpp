@@ -1,6 +1,8 @@
 // Surfel fusion (see surfel_fusion.h for the steps, rules and references).
 #include "slam/surfel_fusion.h"
 
+#include "core/stopwatch.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,8 +15,7 @@ namespace ef::slam {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+using Clock = SteadyClock;
 
 constexpr float kDegToRad = 3.14159265358979f / 180.0f;
 constexpr int kMaxScale = 4;  // IndexMap: 1..4

@@ -1,5 +1,7 @@
 #include "slam/surfel_slam.h"
 
+#include "core/stopwatch.h"
+
 #include <algorithm>
 #include <chrono>
 #include <sstream>
@@ -7,10 +9,7 @@
 namespace ef::slam {
 
 namespace {
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+using Clock = SteadyClock;
 }  // namespace
 
 Status SurfelSlamOptions::validate() const {
