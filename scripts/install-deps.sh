@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages EdgeFusion needs. Run as root (or with sudo).
 #   install-deps.sh            build and run natively (compiler, CMake, Eigen, OpenCV core/imgproc, PNG/JPEG/zlib)
-#   install-deps.sh test       + test tools (GoogleTest, clang/libFuzzer, python3-open3d for the PLY check)
+#   install-deps.sh test       + test tools (GoogleTest, clang/libFuzzer, python3-open3d for the PLY check,
+#                              XNNPACK, pthreadpool, cpuinfo for bench_nn_conv's comparison)
 #   install-deps.sh cross      + aarch64 cross compiler, arm64 multiarch libraries, qemu-user
 # Idempotent: packages already present are skipped quickly by apt.
 set -euo pipefail
@@ -13,7 +14,8 @@ export DEBIAN_FRONTEND=noninteractive
 base_pkgs=(build-essential cmake ninja-build pkg-config git
            libeigen3-dev libopencv-core-dev libopencv-imgproc-dev
            libpng-dev libjpeg62-turbo-dev zlib1g-dev)
-test_pkgs=(libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev python3 python3-numpy python3-open3d)
+test_pkgs=(libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev python3 python3-numpy python3-open3d
+           libxnnpack-dev libpthreadpool-dev libcpuinfo-dev)
 cross_pkgs=(g++-aarch64-linux-gnu qemu-user
             libpng-dev:arm64 libjpeg62-turbo-dev:arm64 zlib1g-dev:arm64
             libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64 libgtest-dev:arm64)

@@ -1,6 +1,8 @@
 // Graph executor: binds each layer once (kernel function pointer + arguments with arena pointers),
-// then run() is a loop of indirect calls. Kernel choice: the scalar reference for now; a dispatched
-// variant table per op family replaces the `*_ref` pointers below without touching the loop.
+// then run() is a loop of indirect calls. Convolutions take the best variant of their family's
+// table (nn/conv_kernels.h) that the CPU, EF_ISA and ExecutorOptions::max_isa allow, with weights
+// repacked for it at creation; the other layers run their scalar reference (a small share of the
+// time: see docs/results.md).
 #include "nn/executor.h"
 
 #include <cmath>
@@ -10,7 +12,7 @@ namespace ef::nn {
 
 struct Executor::Step {
   LayerType type;
-  ConvI8Fn conv = nullptr;
+  const kernels::KernelVariant<ConvKernelPtr>* conv = nullptr;
   AddI8Fn add = nullptr;
   ConcatI8Fn concat = nullptr;
   ClampI8Fn clamp = nullptr;
@@ -26,17 +28,65 @@ struct Executor::Step {
   SoftmaxArgs softmax_args;
 };
 
-Executor::Executor(const Model& model, MemoryPlan plan) : model_(model), plan_(std::move(plan)) {}
+Executor::Executor(const Model& model, MemoryPlan plan, const ExecutorOptions& options)
+    : model_(model), plan_(std::move(plan)), options_(options) {}
 Executor::~Executor() = default;
 
-Result<std::unique_ptr<Executor>> Executor::create(const Model& model, const PlanOptions& options) {
-  EF_ASSIGN_OR_RETURN(MemoryPlan plan, plan_memory(model, options));
-  std::unique_ptr<Executor> ex(new Executor(model, std::move(plan)));
+namespace {
+
+// The best row of `table` that the CPU (capped by EF_ISA) runs and that is at most `max_isa`
+// (enum order; rows are lowest ISA first and row 0 is the scalar reference).
+template <std::size_t N>
+const kernels::KernelVariant<ConvKernelPtr>* pick(const kernels::KernelVariant<ConvKernelPtr> (&table)[N],
+                                                  kernels::Isa max_isa) {
+  const kernels::KernelVariant<ConvKernelPtr>* best = &table[0];
+  for (const auto& v : table)
+    if (kernels::isa_available(v.isa) && static_cast<int>(v.isa) <= static_cast<int>(max_isa)) best = &v;
+  return best;
+}
+
+ConvShape conv_shape(const ModelDesc& d, const LayerDesc& l) {
+  const TensorDesc& in = d.tensors[l.inputs[0]];
+  const TensorDesc& out = d.tensors[l.output];
+  return ConvShape{int(in.c), int(out.c), int(l.kernel_h), int(l.kernel_w), in.zero_point};
+}
+
+}  // namespace
+
+const char* Executor::kernel_name(std::size_t layer) const {
+  return layer < steps_.size() && steps_[layer].conv ? steps_[layer].conv->name : "";
+}
+
+Result<std::unique_ptr<Executor>> Executor::create(const Model& model, const ExecutorOptions& options) {
+  EF_ASSIGN_OR_RETURN(MemoryPlan plan, plan_memory(model, options.plan));
+  std::unique_ptr<Executor> ex(new Executor(model, std::move(plan), options));
   ex->arena_ = std::make_unique<Arena>(ex->plan_.total_bytes == 0 ? Arena::kMaxAlign : ex->plan_.total_bytes);
   ex->base_ = static_cast<int8_t*>(ex->arena_->allocate_bytes(ex->arena_->capacity(), Arena::kMaxAlign));
   if (ex->base_ == nullptr) return error(ErrorCode::kResourceExhausted, model.source + ": executor: arena allocation failed");
   EF_RETURN_IF_ERROR(ex->bind());
+  EF_RETURN_IF_ERROR(ex->pack_weights());
   return ex;
+}
+
+Status Executor::pack_weights() {
+  const ModelDesc& d = model_.desc;
+  std::size_t total = Arena::kMaxAlign;
+  for (std::size_t li = 0; li < steps_.size(); ++li)
+    if (steps_[li].conv) total += (steps_[li].conv->fn->packed_bytes(conv_shape(d, d.layers[li])) + 63) / 64 * 64;
+  packed_ = std::make_unique<Arena>(total);
+  for (std::size_t li = 0; li < steps_.size(); ++li) {
+    Step& s = steps_[li];
+    if (!s.conv) continue;
+    const ConvShape shape = conv_shape(d, d.layers[li]);
+    const std::size_t bytes = s.conv->fn->packed_bytes(shape);
+    if (bytes == 0) continue;  // the reference reads the file layout
+    void* blob = packed_->allocate_bytes(bytes, 64);
+    if (blob == nullptr) return error(ErrorCode::kInternal, model_.source + ": executor: packed weight arena too small");
+    const PreparedLayer& p = model_.prepared[li];
+    s.conv->fn->pack(shape, ConvParams{p.packed.data(), p.bias.data(), p.requant.data()}, blob);
+    s.conv_args.packed = blob;
+  }
+  return {};
 }
 
 const int8_t* Executor::tensor_data(uint32_t id) const {
@@ -76,8 +126,8 @@ Status Executor::bind() {
       case LayerType::kConv2d:
       case LayerType::kDepthwiseConv2d:
       case LayerType::kPointwiseConv2d: {
-        s.conv = l.type == LayerType::kConv2d ? conv2d_i8_ref
-                 : l.type == LayerType::kDepthwiseConv2d ? dwconv2d_i8_ref : pwconv2d_i8_ref;
+        s.conv = l.type == LayerType::kDepthwiseConv2d ? pick(kDwConvI8Variants, options_.max_isa)
+                                                       : pick(kConvI8Variants, options_.max_isa);
         ConvArgs& a = s.conv_args;
         a.in = view(l.inputs[0]);
         a.out = mut_view(l.output);
@@ -153,12 +203,30 @@ void Executor::quantize_input(const float* input) {
   }
 }
 
+// One convolution, split by output rows over the pool's threads when there is one: each task runs
+// the kernel on a copy of the arguments with its own row range (a few hundred bytes on the stack).
+void Executor::run_conv(Step& s) {
+  const ConvI8Fn run = s.conv->fn->run;
+  ThreadPool* pool = options_.pool;
+  const int rows = s.conv_args.out.h;
+  if (pool == nullptr || pool->threads() == 1 || rows < 2) {
+    run(s.conv_args);
+    return;
+  }
+  const int tasks = pool->threads() < rows ? pool->threads() : rows;
+  pool->parallel_for(tasks, [&](int task, int) {
+    ConvArgs a = s.conv_args;
+    split_rows(rows, tasks, task, &a.oy_begin, &a.oy_end);
+    run(a);
+  });
+}
+
 void Executor::run_layers(float* probs) {
   for (Step& s : steps_) {
     switch (s.type) {
       case LayerType::kConv2d:
       case LayerType::kDepthwiseConv2d:
-      case LayerType::kPointwiseConv2d: s.conv(s.conv_args); break;
+      case LayerType::kPointwiseConv2d: run_conv(s); break;
       case LayerType::kAdd: s.add(s.add_args); break;
       case LayerType::kConcat: s.concat(s.concat_args); break;
       case LayerType::kClamp: s.clamp(s.clamp_args); break;

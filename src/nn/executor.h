@@ -12,16 +12,35 @@
 
 #include "core/arena.h"
 #include "core/result.h"
+#include "core/thread_pool.h"
+#include "kernels/variants.h"
+#include "nn/conv_kernels.h"
 #include "nn/layers_ref.h"
 #include "nn/model_format.h"
 #include "nn/planner.h"
 
 namespace ef::nn {
 
+struct ExecutorOptions {
+  PlanOptions plan;
+  // Threads for splitting each convolution by output rows; borrowed, must outlive the executor.
+  // nullptr (default): every layer runs on the calling thread.
+  ThreadPool* pool = nullptr;
+  // Highest ISA level the kernels may use (default: whatever the CPU and EF_ISA allow). Tests set
+  // it to run the whole network on each variant; Isa::scalar gives the reference layers.
+  kernels::Isa max_isa = kernels::Isa::neondot;
+};
+
 class Executor {
  public:
-  // Plans the arena, allocates it once and binds every layer to its kernel and buffers.
-  static Result<std::unique_ptr<Executor>> create(const Model& model, const PlanOptions& options = {});
+  // Plans the arena, allocates it once, picks each convolution's kernel variant, repacks its
+  // weights into that variant's layout (once, here) and binds every layer to its buffers.
+  static Result<std::unique_ptr<Executor>> create(const Model& model, const ExecutorOptions& options);
+  static Result<std::unique_ptr<Executor>> create(const Model& model, const PlanOptions& options = {}) {
+    ExecutorOptions o;
+    o.plan = options;
+    return create(model, o);
+  }
 
   Executor(const Executor&) = delete;
   Executor& operator=(const Executor&) = delete;
@@ -42,20 +61,28 @@ class Executor {
   const int8_t* tensor_data(uint32_t tensor_id) const;
 
   const MemoryPlan& plan() const { return plan_; }
+  // The kernel variant layer `layer` runs ("conv_i8__avx2"...; "" for layers without variants).
+  const char* kernel_name(std::size_t layer) const;
+  // Bytes of repacked weights held by this executor.
+  std::size_t packed_bytes() const { return packed_ ? packed_->used() : 0; }
   std::size_t arena_bytes() const { return plan_.total_bytes; }
   std::size_t input_floats() const { return input_elems_; }
   std::size_t output_floats() const { return output_elems_; }
 
  private:
   struct Step;
-  Executor(const Model& model, MemoryPlan plan);
+  Executor(const Model& model, MemoryPlan plan, const ExecutorOptions& options);
   Status bind();
+  Status pack_weights();
+  void run_conv(Step& s);
   void quantize_input(const float* input);
   void run_layers(float* probs);
 
   const Model& model_;
   MemoryPlan plan_;
+  ExecutorOptions options_;
   std::unique_ptr<Arena> arena_;
+  std::unique_ptr<Arena> packed_;  // repacked convolution weights, 64-byte aligned per layer
   int8_t* base_ = nullptr;
   std::vector<Step> steps_;
   std::vector<double> input_mul_;  // per input channel: scale[c] / input tensor scale

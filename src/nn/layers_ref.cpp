@@ -20,7 +20,8 @@ void conv_body(const ConvArgs& a) {
   const int32_t in_zp = in.zero_point;
   const std::size_t k_per_out = kDepthwise ? std::size_t(a.kernel_h) * a.kernel_w
                                            : std::size_t(a.kernel_h) * a.kernel_w * in.c;
-  for (int oy = 0; oy < out.h; ++oy) {
+  const int oy_end = a.oy_end < 0 ? out.h : a.oy_end;
+  for (int oy = a.oy_begin; oy < oy_end; ++oy) {
     for (int ox = 0; ox < out.w; ++ox) {
       int8_t* dst = out.data + at(out.w, out.c, oy, ox);
       for (int oc = 0; oc < out.c; ++oc) {
@@ -55,12 +56,13 @@ void pwconv2d_i8_ref(const ConvArgs& a) { conv_body<false>(a); }  // 1x1: the ge
 
 void add_i8_ref(const AddArgs& a) {
   const std::size_t n = std::size_t(a.out.h) * a.out.w * a.out.c;
+  const float y_lo = float(a.out_min - a.out.zero_point), y_hi = float(a.out_max - a.out.zero_point);
   for (std::size_t i = 0; i < n; ++i) {
-    // |q - zp| <= 255 and mult < 2^31: each product < 2^39, the sum < 2^40.
-    const int64_t sum = (int64_t(a.a.data[i]) - a.a.zero_point) * a.rq_a.mult +
-                        (int64_t(a.b.data[i]) - a.b.zero_point) * a.rq_b.mult;
-    a.out.data[i] = static_cast<int8_t>(clamp_i64(rounding_rshift_i64(sum, a.rq_a.shift) + a.out.zero_point,
-                                                  a.out_min, a.out_max));
+    // Two float32 products and one float32 sum, in this order (docs/model_format.md 3.3).
+    float y = float(int32_t(a.a.data[i]) - a.a.zero_point) * a.rq_a.multiplier +
+              float(int32_t(a.b.data[i]) - a.b.zero_point) * a.rq_b.multiplier;
+    y = y < y_lo ? y_lo : (y > y_hi ? y_hi : y);
+    a.out.data[i] = static_cast<int8_t>(int32_t(round_half_even_small(y)) + a.out.zero_point);
   }
 }
 
@@ -72,8 +74,7 @@ void concat_i8_ref(const ConcatArgs& a) {
       const TensorI8& in = a.in[k];
       const int8_t* src = in.data + p * in.c;
       for (int c = 0; c < in.c; ++c) {
-        const int64_t v = rounding_rshift_i64((int64_t(src[c]) - in.zero_point) * a.rq[k].mult, a.rq[k].shift);
-        dst[c] = static_cast<int8_t>(clamp_i64(v + a.out.zero_point, -128, 127));
+        dst[c] = requantize(int32_t(src[c]) - in.zero_point, a.rq[k], a.out.zero_point, -128, 127);
       }
       dst += in.c;
     }
@@ -82,7 +83,10 @@ void concat_i8_ref(const ConcatArgs& a) {
 
 void clamp_i8_ref(const ClampArgs& a) {
   const std::size_t n = std::size_t(a.out.h) * a.out.w * a.out.c;
-  for (std::size_t i = 0; i < n; ++i) a.out.data[i] = static_cast<int8_t>(clamp_i64(a.in.data[i], a.out_min, a.out_max));
+  for (std::size_t i = 0; i < n; ++i) {
+    const int32_t v = a.in.data[i];
+    a.out.data[i] = static_cast<int8_t>(v < a.out_min ? a.out_min : (v > a.out_max ? a.out_max : v));
+  }
 }
 
 namespace {

@@ -33,21 +33,28 @@ struct ConvArgs {
   MutTensorI8 out;
   int kernel_h = 1, kernel_w = 1, stride_h = 1, stride_w = 1, dilation_h = 1, dilation_w = 1;
   int pad_top = 0, pad_left = 0;
-  const int8_t* weights = nullptr;  // packed layout; for _ref the file layout (model_format.h)
+  const int8_t* weights = nullptr;  // file layout (model_format.h), what the _ref functions read
   const int32_t* bias = nullptr;    // [out.c]
   const Requant* requant = nullptr; // [out.c]
   int32_t out_min = -128, out_max = 127;
+  // What a SIMD variant reads instead of `weights`: the bytes its pack() wrote at load
+  // (nn/conv_kernels.h); nullptr for the references.
+  const void* packed = nullptr;
+  // Output rows to compute, [oy_begin, oy_end); oy_end < 0 means out.h. A thread pool splits a layer
+  // by giving each task its own row range of the same arguments.
+  int oy_begin = 0, oy_end = -1;
 };
 using ConvI8Fn = void (*)(const ConvArgs&);
 void conv2d_i8_ref(const ConvArgs& a);     // weights [out.c][kh][kw][in.c]
 void dwconv2d_i8_ref(const ConvArgs& a);   // weights [c][kh][kw], out.c == in.c
 void pwconv2d_i8_ref(const ConvArgs& a);   // weights [out.c][in.c]; kernel 1, stride 1, no pad
 
-// out = clamp(zp_out + rshift((a - zp_a) * m_a + (b - zp_b) * m_b, shift)); m_a, m_b share one shift.
+// out = zp_out + round_half_even(clamp(float(a - zp_a) * m_a + float(b - zp_b) * m_b, lo - zp_out, hi - zp_out))
+// in float32 (nn/requantize.h), m_x = s_x / s_out.
 struct AddArgs {
   TensorI8 a, b;
   MutTensorI8 out;  // may alias a or b (element i is read before it is written)
-  Requant rq_a, rq_b;  // rq_a.shift == rq_b.shift
+  Requant rq_a, rq_b;
   int32_t out_min = -128, out_max = 127;
 };
 using AddI8Fn = void (*)(const AddArgs&);

@@ -234,10 +234,9 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
         if (!positive_finite(l.weight_scales[c])) return bad("weight scale of channel " + std::to_string(c) + " is not finite and positive");
         if (l.bias[c] > kMaxAbsBias || l.bias[c] < -kMaxAbsBias) return bad("bias of channel " + std::to_string(c) + " beyond +-2^30");
         const double m = double(in0.scale) * double(l.weight_scales[c]) / double(out.scale);
-        const MultiplierFault f = compute_multipliers(&m, 1, &prep.requant[c].mult, &prep.requant[c].shift);
-        if (f != MultiplierFault::kOk)
+        if (!make_multiplier(m, &prep.requant[c].multiplier))
           return bad("requantisation multiplier of channel " + std::to_string(c) + " (" + std::to_string(m) +
-                     ") is " + (f == MultiplierFault::kTooLarge ? "2^29 or more" : "not positive"));
+                     ") is not a normal float32 below 2^24");
       }
       prep.packed = repack_weights(l, in0.c);
       prep.bias = l.bias;
@@ -249,10 +248,11 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
         return bad("shapes differ: " + shape_str(in0) + " + " + shape_str(in1) + " -> " + shape_str(out));
       EF_RETURN_IF_ERROR(check_range());
       const double m[2] = {double(in0.scale) / double(out.scale), double(in1.scale) / double(out.scale)};
-      int32_t mult[2] = {0, 0}, shift = 1;
-      if (compute_multipliers(m, 2, mult, &shift) != MultiplierFault::kOk)
-        return bad("input/output scale ratio is 2^29 or more");
-      prep.requant = {{mult[0], shift}, {mult[1], shift}};
+      prep.requant.resize(2);
+      for (int i = 0; i < 2; ++i)
+        if (!make_multiplier(m[i], &prep.requant[i].multiplier))
+          return bad("input " + std::to_string(i) + "/output scale ratio (" + std::to_string(m[i]) +
+                     ") is not a normal float32 below 2^24");
       break;
     }
     case LayerType::kConcat: {
@@ -263,8 +263,9 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
         channels += t.c;
         const double m = double(t.scale) / double(out.scale);
         Requant rq;
-        if (compute_multipliers(&m, 1, &rq.mult, &rq.shift) != MultiplierFault::kOk)
-          return bad("input " + std::to_string(i) + " to output scale ratio is 2^29 or more");
+        if (!make_multiplier(m, &rq.multiplier))
+          return bad("input " + std::to_string(i) + " to output scale ratio (" + std::to_string(m) +
+                     ") is not a normal float32 below 2^24");
         prep.requant.push_back(rq);
       }
       if (channels != out.c) return bad("input channels sum to " + std::to_string(channels) + ", output has " + std::to_string(out.c));
@@ -286,8 +287,9 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
         prep.requant.resize(window);
         for (uint32_t k = 1; k <= window; ++k) {
           const double m = double(in0.scale) / double(out.scale) / double(k);
-          if (compute_multipliers(&m, 1, &prep.requant[k - 1].mult, &prep.requant[k - 1].shift) != MultiplierFault::kOk)
-            return bad("input/output scale ratio is 2^29 or more");
+          if (!make_multiplier(m, &prep.requant[k - 1].multiplier))
+            return bad("input/output scale ratio over a window of " + std::to_string(k) + " (" + std::to_string(m) +
+                       ") is not a normal float32 below 2^24");
         }
       }
       break;

@@ -112,9 +112,9 @@ uint32_t crc32(const void* data, std::size_t size);
 
 // Layer data derived at load: multipliers, repacked weights, tables. See docs/model_format.md.
 struct PreparedLayer {
-  std::vector<Requant> requant;    // conv: per output channel; add: 2 (shared shift); concat: per
+  std::vector<Requant> requant;    // conv: per output channel; add: 2 (one per input); concat: per
                                    // input; avgpool: entry k-1 for a window of k positions
-  std::vector<int8_t> packed;      // weights in the layout the selected kernel wants (now: as in the file)
+  std::vector<int8_t> packed;      // weights in the file layout (the executor repacks them per kernel variant)
   std::vector<int32_t> bias;
   std::vector<float> exp_table;    // softmax: 256 entries, exp(-scale * d)
 };

@@ -32,5 +32,29 @@ TEST(NnZeroAlloc, InferenceAllocatesNothing) {
   EXPECT_EQ(count.thread_allocations(), 0u);
 }
 
+// With a two-thread pool splitting the convolutions: no allocation on any thread.
+TEST(NnZeroAlloc, PooledInferenceAllocatesNothing) {
+  auto bytes = nn::serialize_model(test::tiny_net());
+  ASSERT_TRUE(bytes.ok());
+  auto model = nn::load_model_memory(bytes->data(), bytes->size(), "tiny.efm");
+  ASSERT_TRUE(model.ok());
+  ThreadPoolOptions po;
+  po.threads = 2;
+  auto pool = ThreadPool::create(po);
+  ASSERT_TRUE(pool.ok());
+  nn::ExecutorOptions eo;
+  eo.pool = pool->get();
+  auto ex = nn::Executor::create(*model, eo);
+  ASSERT_TRUE(ex.ok());
+  std::vector<float> in((*ex)->input_floats(), 50.0f), out((*ex)->output_floats());
+  ASSERT_TRUE((*ex)->run(in.data(), in.size(), out.data(), out.size()).ok());  // warm-up
+  test::AllocationCounter count;
+  for (int i = 0; i < 5; ++i) {
+    in[i] = float(i);
+    EXPECT_TRUE((*ex)->run(in.data(), in.size(), out.data(), out.size()).ok());
+  }
+  EXPECT_EQ(count.global_allocations(), 0u);
+}
+
 }  // namespace
 }  // namespace ef

@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "nn/executor.h"
@@ -117,8 +119,7 @@ TEST(NnExecutor, HandComputedNetwork) {
   ASSERT_TRUE(bytes.ok()) << to_string(bytes.error());
   auto m = load_model_memory(bytes->data(), bytes->size(), "hand.efm");
   ASSERT_TRUE(m.ok()) << to_string(m.error());
-  EXPECT_EQ(m->prepared[0].requant[0].mult, 1 << 30);
-  EXPECT_EQ(m->prepared[0].requant[0].shift, 30);
+  EXPECT_EQ(m->prepared[0].requant[0].multiplier, 1.0f);
   auto ex = Executor::create(*m);
   ASSERT_TRUE(ex.ok());
   // Quantised input (scale 0.5): 2 -> 4, 4 -> 8, -2 -> -4, 1 -> 2; 1.25 -> 2.5 -> 3 and -1.25 -> -3
@@ -147,7 +148,8 @@ TEST(NnExecutor, HandComputedNetwork) {
 namespace ef::nn {
 namespace {
 
-// The int8 arithmetic is integer-only, so every platform gives the same logits: a golden hash of
+// The int8 arithmetic is integer plus IEEE float32 requantisation (no FMA, default rounding), so every
+// platform gives the same logits: a golden hash of
 // the tiny network's int8 head output, identical on x86-64 and AArch64 (qemu).
 TEST(NnExecutor, GoldenLogitsAcrossPlatforms) {
   const Model m = load_tiny(7);
@@ -161,11 +163,56 @@ TEST(NnExecutor, GoldenLogitsAcrossPlatforms) {
   uint32_t h = 2166136261u;  // FNV-1a
   for (size_t i = 0; i < 8 * 8 * 5; ++i) h = (h ^ uint8_t(logits[i])) * 16777619u;
   std::printf("[ golden ] tiny net logits FNV-1a = 0x%08x\n", h);
-  EXPECT_EQ(h, 0xb6f56fc5u);
+  EXPECT_EQ(h, 0x4395c419u);
   bool seen[256] = {};
   int distinct = 0;
   for (size_t i = 0; i < 8 * 8 * 5; ++i) distinct += !seen[uint8_t(logits[i])], seen[uint8_t(logits[i])] = true;
   EXPECT_GT(distinct, 20);  // not a saturated, degenerate output
+}
+
+// The whole network gives the same bytes on every kernel variant the CPU runs (each ISA cap picks
+// another conv_i8 / dwconv_i8 row) and with a thread pool splitting the convolutions by rows.
+TEST(NnExecutor, EveryVariantAndThreadCountGivesTheReferenceBytes) {
+  const Model m = load_tiny(11);
+  auto run = [&](const ExecutorOptions& o, std::vector<int8_t>* tensors, std::string* names) {
+    auto ex = Executor::create(m, o);
+    ASSERT_TRUE(ex.ok()) << to_string(ex.error());
+    std::vector<int8_t> q((*ex)->input_floats());
+    for (size_t i = 0; i < q.size(); ++i) q[i] = static_cast<int8_t>((i * 53 + 5) % 256 - 128);
+    std::vector<float> p((*ex)->output_floats());
+    ASSERT_TRUE((*ex)->run_quantized(q.data(), q.size(), p.data(), p.size()).ok());
+    tensors->clear();
+    for (uint32_t t = 1; t < m.desc.tensors.size(); ++t) {
+      const int8_t* d = (*ex)->tensor_data(t);
+      if (d) tensors->insert(tensors->end(), d, d + m.desc.tensors[t].elements());
+    }
+    names->clear();
+    for (size_t l = 0; l < m.desc.layers.size(); ++l) *names += std::string((*ex)->kernel_name(l)) + " ";
+  };
+  ExecutorOptions ref_options;
+  ref_options.plan = PlanOptions{false, false, 64};  // every tensor stays readable
+  ref_options.max_isa = kernels::Isa::scalar;
+  std::vector<int8_t> want, got;
+  std::string names;
+  run(ref_options, &want, &names);
+  ASSERT_GT(want.size(), 1000u);
+  ThreadPoolOptions po;
+  po.threads = 3;
+  auto pool = ThreadPool::create(po);
+  ASSERT_TRUE(pool.ok());
+  for (kernels::Isa isa : {kernels::Isa::sse41, kernels::Isa::avx2, kernels::Isa::avx512vnni, kernels::Isa::neon,
+                           kernels::Isa::neondot}) {
+    if (!kernels::isa_available(isa)) continue;
+    for (ThreadPool* p : {static_cast<ThreadPool*>(nullptr), pool->get()}) {
+      ExecutorOptions o = ref_options;
+      o.max_isa = isa;
+      o.pool = p;
+      run(o, &got, &names);
+      std::printf("[ variants ] tiny net, cap %s, %d thread(s): %s\n", kernels::isa_name(isa), p ? p->threads() : 1,
+                  names.c_str());
+      EXPECT_EQ(got, want) << "cap " << kernels::isa_name(isa) << (p ? " with 3 threads" : "");
+    }
+  }
 }
 
 }  // namespace

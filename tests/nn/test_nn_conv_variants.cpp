@@ -1,0 +1,188 @@
+// Every conv_i8 variant this CPU (or qemu CPU) runs against the scalar reference conv2d_i8_ref, byte
+// for byte: random shapes around every tile and panel size (channels 1..130, kernels 1x1 to 5x5,
+// strides, dilations, asymmetric padding, odd widths), row ranges, saturating outputs, fused
+// activation ranges and rounding ties. Tensors live in exact-size heap buffers, so a read or write
+// past them is caught by ASan in CI.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "../kernels/kernel_test_util.h"
+#include "nn/conv_kernels.h"
+#include "nn/layers_ref.h"
+
+namespace ef::nn {
+namespace {
+
+struct AlignedFree {
+  void operator()(void* p) const { std::free(p); }
+};
+using Blob = std::unique_ptr<void, AlignedFree>;
+Blob aligned_blob(std::size_t bytes) {
+  return Blob(std::aligned_alloc(64, (bytes + 63) / 64 * 64 + 64));
+}
+
+struct Case {
+  int h, w, cin, cout, kh, kw, stride, dilation, pad_top, pad_left, pad_bottom, pad_right;
+  int32_t in_zp = -3, out_zp = 5, out_min = -128, out_max = 127;
+  int bias_range = 3000;
+  float mult_lo = 0.0005f, mult_hi = 0.004f;
+};
+
+struct Layer {
+  Case c;
+  int oh, ow;
+  std::vector<int8_t> in, weights;
+  std::vector<int32_t> bias;
+  std::vector<Requant> rq;
+};
+
+Layer make_layer(const Case& c, std::mt19937& rng) {
+  Layer l{c, 0, 0, {}, {}, {}, {}};
+  l.oh = (c.h + c.pad_top + c.pad_bottom - (c.dilation * (c.kh - 1) + 1)) / c.stride + 1;
+  l.ow = (c.w + c.pad_left + c.pad_right - (c.dilation * (c.kw - 1) + 1)) / c.stride + 1;
+  std::uniform_int_distribution<int> byte(-128, 127), wbyte(-127, 127), b(-c.bias_range, c.bias_range);
+  std::uniform_real_distribution<float> m(c.mult_lo, c.mult_hi);
+  l.in.resize(std::size_t(c.h) * c.w * c.cin);
+  for (auto& v : l.in) v = int8_t(byte(rng));
+  l.weights.resize(std::size_t(c.cout) * c.kh * c.kw * c.cin);
+  for (auto& v : l.weights) v = int8_t(wbyte(rng));
+  l.bias.resize(c.cout);
+  for (auto& v : l.bias) v = b(rng);
+  l.rq.resize(c.cout);
+  for (auto& r : l.rq) r.multiplier = m(rng);
+  return l;
+}
+
+ConvArgs args_of(const Layer& l, int8_t* out) {
+  ConvArgs a;
+  a.in = {l.in.data(), l.c.h, l.c.w, l.c.cin, l.c.in_zp};
+  a.out = {out, l.oh, l.ow, l.c.cout, l.c.out_zp};
+  a.kernel_h = l.c.kh; a.kernel_w = l.c.kw;
+  a.stride_h = a.stride_w = l.c.stride;
+  a.dilation_h = a.dilation_w = l.c.dilation;
+  a.pad_top = l.c.pad_top; a.pad_left = l.c.pad_left;
+  a.weights = l.weights.data(); a.bias = l.bias.data(); a.requant = l.rq.data();
+  a.out_min = l.c.out_min; a.out_max = l.c.out_max;
+  return a;
+}
+
+std::string describe(const Case& c) {
+  return std::to_string(c.h) + "x" + std::to_string(c.w) + "x" + std::to_string(c.cin) + " -> " +
+         std::to_string(c.cout) + " k" + std::to_string(c.kh) + "x" + std::to_string(c.kw) + " s" +
+         std::to_string(c.stride) + " d" + std::to_string(c.dilation) + " pad " + std::to_string(c.pad_top) + "," +
+         std::to_string(c.pad_left) + "," + std::to_string(c.pad_bottom) + "," + std::to_string(c.pad_right) +
+         " zp " + std::to_string(c.in_zp) + "/" + std::to_string(c.out_zp) + " range [" + std::to_string(c.out_min) +
+         ", " + std::to_string(c.out_max) + "]";
+}
+
+// Runs every runnable variant on `l` over rows [oy_begin, oy_end) and compares with the reference;
+// rows outside the range must keep their sentinel bytes.
+void expect_variants_match(const Layer& l, int oy_begin = 0, int oy_end = -1) {
+  const std::size_t out_bytes = std::size_t(l.oh) * l.ow * l.c.cout;
+  std::vector<int8_t> want(out_bytes, int8_t(0x5A));
+  ConvArgs ra = args_of(l, want.data());
+  ra.oy_begin = oy_begin; ra.oy_end = oy_end;
+  conv2d_i8_ref(ra);
+  const ConvShape shape{l.c.cin, l.c.cout, l.c.kh, l.c.kw, l.c.in_zp};
+  const ConvParams params{l.weights.data(), l.bias.data(), l.rq.data()};
+  for (const auto& v : kConvI8Variants) {
+    if (!kernels::isa_available(v.isa, detected_cpu_features())) continue;
+    const std::size_t bytes = v.fn->packed_bytes(shape);
+    Blob blob = aligned_blob(bytes);
+    v.fn->pack(shape, params, blob.get());
+    std::vector<int8_t> got(out_bytes, int8_t(0x5A));
+    ConvArgs a = args_of(l, got.data());
+    a.packed = blob.get();
+    a.oy_begin = oy_begin; a.oy_end = oy_end;
+    v.fn->run(a);
+    for (std::size_t i = 0; i < out_bytes; ++i) {
+      ASSERT_EQ(int(got[i]), int(want[i])) << v.name << " differs from conv2d_i8_ref at byte " << i << " (pixel "
+                                           << i / l.c.cout << ", channel " << i % l.c.cout << ") for "
+                                           << describe(l.c) << ", rows [" << oy_begin << ", " << oy_end << ")";
+    }
+  }
+}
+
+TEST(NnConvVariants, ReportVariants) {
+  EXPECT_FALSE(test::runnable_variants(kConvI8Variants, "conv_i8").empty());
+}
+
+TEST(NnConvVariants, ChannelCountsAroundPanelsAndSteps) {
+  std::mt19937 rng(101);
+  for (int cin : {1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 24, 33}) {
+    for (int cout : {1, 3, 4, 5, 8, 9, 14, 16, 17, 24, 31, 32, 33, 48, 64, 65, 80, 96, 130}) {
+      Case c{5, 7, cin, cout, 3, 3, 1, 1, 1, 1, 1, 1};
+      expect_variants_match(make_layer(c, rng));
+      if (HasFatalFailure()) return;
+    }
+  }
+}
+
+TEST(NnConvVariants, RandomGeometry) {
+  std::mt19937 rng(202);
+  std::uniform_int_distribution<int> hw(1, 19), ch(1, 40), k(1, 5), s(1, 3), d(1, 3), zp(-128, 127);
+  for (int rep = 0; rep < 120; ++rep) {
+    Case c{hw(rng), hw(rng), ch(rng), ch(rng), k(rng), k(rng), s(rng), d(rng), 0, 0, 0, 0};
+    const int span_h = c.dilation * (c.kh - 1) + 1, span_w = c.dilation * (c.kw - 1) + 1;
+    std::uniform_int_distribution<int> ph(0, span_h - 1), pw(0, span_w - 1);
+    c.pad_top = ph(rng); c.pad_bottom = ph(rng); c.pad_left = pw(rng); c.pad_right = pw(rng);
+    if (c.h + c.pad_top + c.pad_bottom < span_h || c.w + c.pad_left + c.pad_right < span_w) continue;
+    c.in_zp = zp(rng); c.out_zp = zp(rng);
+    expect_variants_match(make_layer(c, rng));
+    if (HasFatalFailure()) return;
+  }
+}
+
+TEST(NnConvVariants, WideRowsAndPointwise) {
+  std::mt19937 rng(303);
+  // Rows longer than every tile (5..16 pixels), with tails of each length; 1x1 pointwise.
+  for (int w : {1, 2, 11, 12, 13, 16, 17, 29, 33, 40}) {
+    expect_variants_match(make_layer(Case{2, w, 24, 48, 1, 1, 1, 1, 0, 0, 0, 0}, rng));
+    expect_variants_match(make_layer(Case{3, w, 32, 32, 3, 3, 1, 1, 1, 1, 1, 1}, rng));
+    expect_variants_match(make_layer(Case{4, w, 4, 24, 3, 3, 2, 1, 1, 1, 1, 1}, rng));
+    if (HasFatalFailure()) return;
+  }
+}
+
+TEST(NnConvVariants, RowRangesWriteOnlyTheirRows) {
+  std::mt19937 rng(404);
+  const Layer l = make_layer(Case{9, 13, 16, 20, 3, 3, 1, 1, 1, 1, 1, 1}, rng);
+  for (auto [b, e] : {std::pair{0, 1}, {3, 4}, {2, 7}, {8, 9}, {0, 9}, {5, 5}}) {
+    expect_variants_match(l, b, e);
+    if (HasFatalFailure()) return;
+  }
+}
+
+TEST(NnConvVariants, SaturationActivationRangesAndTies) {
+  std::mt19937 rng(505);
+  // Huge biases and multipliers: most outputs clamp at both ends.
+  Case big{6, 9, 17, 19, 3, 3, 1, 1, 1, 1, 1, 1};
+  big.bias_range = 1 << 30;
+  big.mult_lo = 0.5f; big.mult_hi = 1000.0f;
+  expect_variants_match(make_layer(big, rng));
+  // ReLU6-like ranges with extreme zero points.
+  for (auto [zp, lo, hi] : {std::tuple{-128, -128, -80}, {127, 127, 127}, {0, 0, 37}, {-20, -20, 127}}) {
+    Case c{5, 6, 12, 21, 3, 3, 1, 1, 1, 1, 1, 1};
+    c.out_zp = zp; c.out_min = lo; c.out_max = hi;
+    expect_variants_match(make_layer(c, rng));
+  }
+  // Multiplier 0.5 and tiny accumulators: every odd accumulator is a rounding tie.
+  Case ties{4, 5, 3, 9, 1, 1, 1, 1, 0, 0, 0, 0};
+  ties.bias_range = 3;
+  ties.mult_lo = ties.mult_hi = 0.5f;
+  Layer l = make_layer(ties, rng);
+  for (auto& v : l.weights) v = int8_t(v % 2);
+  for (auto& v : l.in) v = int8_t(v % 3);
+  expect_variants_match(l);
+  // 5x5 with dilation 2 on an image smaller than the window (every tap hits padding somewhere).
+  expect_variants_match(make_layer(Case{3, 4, 10, 18, 5, 5, 1, 2, 4, 4, 4, 4}, rng));
+}
+
+}  // namespace
+}  // namespace ef::nn
