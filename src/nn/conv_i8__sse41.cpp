@@ -11,9 +11,14 @@ struct Sse41 {
   using R = __m128i;
   static constexpr int kLanes = 4;
   static constexpr int kRegisters = 16;
-  static R widen(uint64_t bytes) { return _mm_cvtepi8_epi16(_mm_cvtsi64_si128(static_cast<long long>(bytes))); }
-  template <int J>
-  static R pair(R x) { return _mm_shuffle_epi32(x, J * 0x55); }
+  static void widen8(uint64_t bytes, int16_t* dst) {
+    _mm_store_si128(reinterpret_cast<__m128i*>(dst), _mm_cvtepi8_epi16(_mm_cvtsi64_si128(static_cast<long long>(bytes))));
+  }
+  static R broadcast_pair(const int16_t* p) {
+    int32_t pair;
+    std::memcpy(&pair, p, 4);
+    return _mm_set1_epi32(pair);
+  }
   static R madd_add(R acc, R x, const int16_t* w) {
     return _mm_add_epi32(acc, _mm_madd_epi16(x, _mm_load_si128(reinterpret_cast<const __m128i*>(w))));
   }

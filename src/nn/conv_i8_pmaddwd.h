@@ -1,15 +1,16 @@
 // The conv_i8 tile for x86 without VNNI (SSE4.1 and AVX2), written once over a small vector traits
-// class. PMADDWD multiplies int16 pairs and adds each pair into an int32 lane, so the input is
-// widened to int16 as it is read, 8 channels at a time, and each pair of channels is broadcast to
-// every lane (one PSHUFD) and multiplied by the pair's weights of `lanes` output channels.
+// class. PMADDWD multiplies int16 pairs and adds each pair into an int32 lane, so for each tap the
+// tile first widens up to 64 input channels of each of its MR pixels to int16 in a stack buffer,
+// then broadcasts one int16 pair at a time from there (a load, no shuffle) and multiplies it by the
+// pair's weights of `lanes` output channels in each of NV panels.
 // Exact: int16 products of int8 values cannot saturate, unlike PMADDUBSW's int16 pair sums.
 // Weights [tap][cin/2][lanes][2] int16 (ConvPackLayout{lanes, 2, 2, 8, 0}); raw input bytes, the
 // zero point is folded into the biases by the pack.
 //
 // Traits V provides: type R (register), kLanes, kRegisters,
-//   R widen(uint64_t eight_bytes)  -> eight int16 (repeated in each 128-bit half for AVX2)
-//   template <int J> R pair(R x)   -> the J-th int16 pair in every 32-bit lane
-//   R madd_add(R acc, R x, const int16_t* w)   acc + pmaddwd(x, w[0 .. 2 * kLanes))
+//   void widen8(uint64_t eight_bytes, int16_t* dst)  eight int8 -> eight int16 at dst
+//   R broadcast_pair(const int16_t* p)               the int16 pair at p in every 32-bit lane
+//   R madd_add(R acc, R x, const int16_t* w)          acc + pmaddwd(x, w[0 .. 2 * kLanes))
 //   R load_i32(const int32_t*), void store_requantized(R acc, const float* mult, ...)
 #pragma once
 
@@ -24,9 +25,11 @@ template <class V>
 struct PmaddwdTile {
   static constexpr int kMaxPanels = 4;
   // MR x NV accumulators plus the widened pixel and one broadcast pair in V::kRegisters.
+  // MR x NV accumulators plus one broadcast pair within V::kRegisters; weights stay in memory
+  // operands (L1), each read by MR pixels.
   template <int NV>
   static constexpr int pixels() {
-    return (V::kRegisters - 3) / NV < 8 ? (V::kRegisters - 3) / NV : 8;
+    return (V::kRegisters - 2) / NV < 8 ? (V::kRegisters - 2) / NV : 8;
   }
 
   template <int NV, int MR>
@@ -35,6 +38,7 @@ struct PmaddwdTile {
     const ConvArgs& a = *j.a;
     const ConvPackHeader& h = conv_header(j.blob);
     constexpr int L = V::kLanes;
+    constexpr int kBlock = 64;  // input channels widened per pass (2 KiB of int16 for MR = 8)
     const int32_t* bias = conv_bias(j.blob) + j.panel0 * L;
     const int16_t* w[NV];
     for (int v = 0; v < NV; ++v) w[v] = reinterpret_cast<const int16_t*>(conv_panel(j.blob, j.panel0 + v));
@@ -44,27 +48,28 @@ struct PmaddwdTile {
       const R b = V::load_i32(bias + L * v);
       for (int m = 0; m < MR; ++m) acc[m][v] = b;
     }
-    const int chunks = h.cin_pad / 8, tail = h.cin % 8;
-    const int full = tail ? chunks - 1 : chunks;
-    constexpr int kChunkStride = 4 * 2 * L;  // int16 weights per 8-channel chunk of one panel
+    alignas(64) int16_t wide[MR][kBlock];
+    const int cin = h.cin, cin_pad = h.cin_pad;
     for (int ky = 0; ky < a.kernel_h; ++ky) {
       for (int kx = 0; kx < a.kernel_w; ++kx) {
         const int8_t* p[MR];
         tap_pointers<MR>(j, ky, kx, p);
-        for (int c = 0; c < chunks; ++c) {
+        for (int c0 = 0; c0 < cin_pad; c0 += kBlock) {
+          const int n = cin_pad - c0 < kBlock ? cin_pad - c0 : kBlock;  // a multiple of 8
           for (int m = 0; m < MR; ++m) {
-            uint64_t bytes;
-            if (c < full) std::memcpy(&bytes, p[m] + 8 * c, 8);
-            else bytes = load_tail8(p[m] + 8 * c, tail);  // channels past cin have zero weights
-            const R x = V::widen(bytes);
-            const R x0 = V::template pair<0>(x), x1 = V::template pair<1>(x);
-            const R x2 = V::template pair<2>(x), x3 = V::template pair<3>(x);
-            for (int v = 0; v < NV; ++v) {
-              const int16_t* wc = w[v] + c * kChunkStride;
-              R s = V::madd_add(acc[m][v], x0, wc);
-              s = V::madd_add(s, x1, wc + 2 * L);
-              s = V::madd_add(s, x2, wc + 4 * L);
-              acc[m][v] = V::madd_add(s, x3, wc + 6 * L);
+            for (int c = 0; c < n; c += 8) {
+              uint64_t bytes;
+              const int left = cin - (c0 + c);
+              if (left >= 8) std::memcpy(&bytes, p[m] + c0 + c, 8);
+              else bytes = load_tail8(p[m] + c0 + c, left);  // channels past cin have zero weights
+              V::widen8(bytes, wide[m] + c);
+            }
+          }
+          for (int k = 0; k < n; k += 2) {
+            const std::size_t wo = std::size_t(c0 + k) * L;  // pair (c0 + k) / 2, 2 * L int16 per pair
+            for (int m = 0; m < MR; ++m) {
+              const R x = V::broadcast_pair(wide[m] + k);
+              for (int v = 0; v < NV; ++v) acc[m][v] = V::madd_add(acc[m][v], x, w[v] + wo);
             }
           }
         }
