@@ -101,6 +101,86 @@ inline void dw_pack(const ConvShape& s, const ConvParams& p, void* dst) {
   }
 }
 
+// ---- Byte layout for the unsigned-by-signed byte dot product (VPDPBUSD, AVX-512 VNNI) ----
+//
+// The input is made unsigned per byte (u = q ^ 0x80 = q + 128) and the extra 128 * sum_t w_t joins
+// the fold: acc = (bias - (z_in + 128) * sum_t w_t) + sum_t u_t * w_t (the pad row, z_in, becomes
+// z_in + 128 and still cancels its share). The two taps of a pair are interleaved byte by byte within
+// each 128-bit lane (PUNPCKLBW / PUNPCKHBW), so a dword of the low (high) interleave holds channels
+// 2i and 2i + 1 (8 + 2i and 9 + 2i) of the lane's 16, both taps each: VPDPBUSD with weight bytes
+// (w0, w1, 0, 0) sums the even channel, (0, 0, w0, w1) the odd one. Hence four accumulators:
+//     a = 2 * h + r:   channel 16 g + 8 h + 2 i + r  in dword i of lane g   (h, r in {0, 1}, i < 4)
+// with no cross-lane shuffle per tap. Blob, sections 64-byte aligned, Cp = C rounded up to 64 (the
+// widest block, a zmm of bytes) so every full-width load of a block stays inside the blob:
+//     int32  bias[4][Cp / 4]      bias[a][4 g + i] = bias[c] - (z_in + 128) * sum_t w[c][t]
+//     float  multiplier[4][Cp / 4]  (1 in the padding)
+//     int8   pad_row[Cp]          z_in
+//     int8   weights[P][4][Cp]    weights[p][a][16 g + 4 i + 2 r' + k] = (r' == r) ? w[c][2p + k] : 0
+// |int32| stays below 2^31: |bias| <= 2^30 and each other term is below 255 * 127 * 961 < 2^25.
+constexpr int kDwBytePad = 64;
+
+struct DwByteLayout {
+  int c = 0, cp = 0, taps = 0, pairs = 0;
+  std::size_t bias = 0, mult = 0, pad_row = 0, weights = 0, bytes = 0;
+};
+
+inline DwByteLayout dw_byte_layout(int c, int kernel_h, int kernel_w) {
+  DwByteLayout L;
+  L.c = c;
+  L.cp = (c + kDwBytePad - 1) / kDwBytePad * kDwBytePad;
+  L.taps = kernel_h * kernel_w;
+  L.pairs = (L.taps + 1) / 2;
+  const std::size_t cp = static_cast<std::size_t>(L.cp);
+  L.bias = 0;
+  L.mult = L.bias + dw_round64(cp * sizeof(int32_t));
+  L.pad_row = L.mult + dw_round64(cp * sizeof(float));
+  L.weights = L.pad_row + dw_round64(cp);
+  L.bytes = L.weights + dw_round64(static_cast<std::size_t>(L.pairs) * 4 * cp);
+  return L;
+}
+
+inline std::size_t dw_byte_packed_bytes(const ConvShape& s) {
+  return dw_byte_layout(s.in_c, s.kernel_h, s.kernel_w).bytes;
+}
+
+// Position of channel c in its accumulator's vector: accumulator a, index (int32 / float) j.
+struct DwBytePos {
+  int a, j;
+};
+inline DwBytePos dw_byte_pos(int c) {
+  const int g = c / 16, k = c % 16, h = k / 8, i = (k % 8) / 2, r = k % 2;
+  return {2 * h + r, 4 * g + i};
+}
+
+inline void dw_byte_pack(const ConvShape& s, const ConvParams& p, void* dst) {
+  const DwByteLayout L = dw_byte_layout(s.in_c, s.kernel_h, s.kernel_w);
+  auto* base = static_cast<unsigned char*>(dst);
+  std::memset(base, 0, L.bytes);
+  auto* bias = reinterpret_cast<int32_t*>(base + L.bias);
+  auto* mult = reinterpret_cast<float*>(base + L.mult);
+  auto* pad_row = reinterpret_cast<int8_t*>(base + L.pad_row);
+  auto* w = reinterpret_cast<int8_t*>(base + L.weights);
+  const std::size_t q = static_cast<std::size_t>(L.cp) / 4;
+  for (int c = 0; c < L.cp; ++c) {
+    mult[c] = 1.0f;
+    pad_row[c] = static_cast<int8_t>(s.in_zero_point);
+  }
+  for (int c = 0; c < L.c; ++c) {
+    const int8_t* wc = p.weights + static_cast<std::size_t>(c) * L.taps;
+    const DwBytePos pos = dw_byte_pos(c);
+    const int r = c % 2;
+    int32_t sum_w = 0;
+    for (int t = 0; t < L.taps; ++t) {
+      sum_w += wc[t];
+      const std::size_t at = (static_cast<std::size_t>(t / 2) * 4 + pos.a) * L.cp + (c / 16) * 16 +
+                             ((c % 8) / 2) * 4 + 2 * r + t % 2;
+      w[at] = wc[t];
+    }
+    bias[pos.a * q + pos.j] = p.bias[c] - (s.in_zero_point + 128) * sum_w;
+    mult[pos.a * q + pos.j] = p.requant[c].multiplier;
+  }
+}
+
 // What the store of a block needs besides the accumulators (requantize.h, in float).
 struct DwRequant {
   float y_lo, y_hi;  // float(out_min - zp), float(out_max - zp)
@@ -108,22 +188,63 @@ struct DwRequant {
 };
 
 // Channels [c0, c) of one output pixel without SIMD, for the ISAs without lane masks (at most
-// kWidth - 1 channels): the same folded sum, then the shared scalar requantisation.
-inline void dw_tail_scalar(const int8_t* const* tap, int pairs, int cp, int c0, int c, const int32_t* bias,
-                           const float* mult, const int16_t* w, const DwRequant& rq, int8_t* dst) {
+// kWidth - 1 channels): the same folded sum, then the shared scalar requantisation. Tap t reads
+// base + off[t] (addresses as integers, as in dw_run).
+inline void dw_tail_scalar(std::intptr_t base, const std::intptr_t* off, int pairs, int cp, int c0, int c,
+                           const int32_t* bias, const float* mult, const int16_t* w, const DwRequant& rq, int8_t* dst) {
   for (int ch = c0; ch < c; ++ch) {
     int32_t acc = bias[ch];
     for (int p = 0; p < pairs; ++p) {
       const int16_t* wp = w + (static_cast<std::size_t>(p) * cp + ch) * 2;
-      acc += int32_t(tap[2 * p][ch]) * wp[0] + int32_t(tap[2 * p + 1][ch]) * wp[1];
+      acc += int32_t(reinterpret_cast<const int8_t*>(base + off[2 * p])[ch]) * wp[0] +
+             int32_t(reinterpret_cast<const int8_t*>(base + off[2 * p + 1])[ch]) * wp[1];
     }
     dst[ch] = requantize(acc, mult[ch], rq.zp, rq.lo, rq.hi);
   }
 }
 
+// NPX output pixels, all channels. Tap t of pixel x is at base[x] + off[t] (addresses as integers:
+// interior pixels use the window's first pixel and fixed offsets, border pixels base 0 and a table
+// of addresses). The NPX pixels share each block's bias and weight loads.
+template <class V, int NPX>
+inline void dw_pixels(const std::intptr_t* base, const std::intptr_t* off, const DwLayout& L, const int32_t* bias,
+                      const float* mult, const int16_t* weights, const DwRequant& rq, int8_t* const* dst) {
+  constexpr int W = V::kWidth;
+  const std::size_t pair_stride = static_cast<std::size_t>(L.cp) * 2;  // int16 per tap pair
+  const int C = L.c;
+  int c0 = 0;
+  for (; c0 + W <= C; c0 += W) {
+    typename V::Acc acc[NPX];
+    acc[0] = V::load_bias(bias + c0);
+    for (int x = 1; x < NPX; ++x) acc[x] = acc[0];
+    const int16_t* w = weights + static_cast<std::size_t>(c0) * 2;
+    for (int p = 0; p < L.pairs; ++p, w += pair_stride) {
+      const std::intptr_t o0 = off[2 * p] + c0, o1 = off[2 * p + 1] + c0;
+      for (int x = 0; x < NPX; ++x)
+        acc[x] = V::mac2(acc[x], reinterpret_cast<const int8_t*>(base[x] + o0),
+                         reinterpret_cast<const int8_t*>(base[x] + o1), w);
+    }
+    for (int x = 0; x < NPX; ++x) V::store(acc[x], mult + c0, rq, dst[x] + c0);
+  }
+  if (c0 < C) {
+    for (int x = 0; x < NPX; ++x) {
+      if constexpr (V::kMasked) {
+        const int n = C - c0;
+        typename V::Acc acc = V::load_bias(bias + c0);
+        const int16_t* w = weights + static_cast<std::size_t>(c0) * 2;
+        for (int p = 0; p < L.pairs; ++p, w += pair_stride)
+          acc = V::mac2_n(acc, reinterpret_cast<const int8_t*>(base[x] + off[2 * p] + c0),
+                          reinterpret_cast<const int8_t*>(base[x] + off[2 * p + 1] + c0), w, n);
+        V::store_n(acc, mult + c0, rq, dst[x] + c0, n);
+      } else {
+        dw_tail_scalar(base[x], off, L.pairs, L.cp, c0, C, bias, mult, weights, rq, dst[x]);
+      }
+    }
+  }
+}
+
 template <class V>
 void dw_run(const ConvArgs& a) {
-  constexpr int W = V::kWidth;
   const TensorI8& in = a.in;
   const MutTensorI8& out = a.out;
   const DwLayout L = dw_layout(in.c, a.kernel_h, a.kernel_w);
@@ -134,23 +255,24 @@ void dw_run(const ConvArgs& a) {
   const auto* weights = reinterpret_cast<const int16_t*>(base + L.weights);
   const DwRequant rq = {static_cast<float>(a.out_min - out.zero_point), static_cast<float>(a.out_max - out.zero_point),
                         out.zero_point, a.out_min, a.out_max};
-  const std::size_t pair_stride = static_cast<std::size_t>(L.cp) * 2;  // int16 per tap pair
   const std::size_t in_row = static_cast<std::size_t>(in.w) * in.c;    // bytes per input row
   const int C = in.c;
   const int oy_end = a.oy_end < 0 ? out.h : a.oy_end;
 
-  // Fixed-size tables on the stack (about 15 KiB: the loader keeps kernels within 31 x 31), so run()
+  // Fixed-size tables on the stack (about 23 KiB: the loader keeps kernels within 31 x 31), so run()
   // never allocates. The pad row and the folded bias assume a.in.zero_point == the pack's in_zero_point.
-  const int8_t* rows[kDwMaxKernel];    // input row of each ky, nullptr outside the input
-  const int8_t* tap[kDwMaxTaps + 1];  // per output pixel: pixel of each tap (pad row outside), + a dummy
-  tap[L.taps] = pad_row;              // the weight-0 partner of the last tap when taps is odd
-  // Interior pixels (window wholly inside the input): tap t is the window's first pixel + offset[t].
-  std::ptrdiff_t offset[kDwMaxTaps];
+  const int8_t* rows[kDwMaxKernel];       // input row of each ky, nullptr outside the input
+  std::intptr_t offset[kDwMaxTaps + 1];  // interior pixels: tap t at the window's first pixel + offset[t]
+  std::intptr_t tab[kDwMaxTaps + 1];     // border pixels: tap t's address (the pad row outside the input)
   for (int ky = 0, t = 0; ky < a.kernel_h; ++ky)
     for (int kx = 0; kx < a.kernel_w; ++kx, ++t)
-      offset[t] = static_cast<std::ptrdiff_t>(ky) * a.dilation_h * static_cast<std::ptrdiff_t>(in_row) +
-                  static_cast<std::ptrdiff_t>(kx) * a.dilation_w * C;
+      offset[t] = static_cast<std::intptr_t>(ky) * a.dilation_h * static_cast<std::intptr_t>(in_row) +
+                  static_cast<std::intptr_t>(kx) * a.dilation_w * C;
+  // The weight-0 partner of the last tap when taps is odd: any readable pixel.
+  offset[L.taps] = offset[L.taps - 1];
+  tab[L.taps] = reinterpret_cast<std::intptr_t>(pad_row);
   const int span_w = (a.kernel_w - 1) * a.dilation_w;  // first to last tap column, pixels
+  const std::intptr_t step = static_cast<std::intptr_t>(a.stride_w) * C;  // the next pixel's window
 
   for (int oy = a.oy_begin; oy < oy_end; ++oy) {
     bool rows_inside = true;
@@ -159,37 +281,35 @@ void dw_run(const ConvArgs& a) {
       rows[ky] = (iy >= 0 && iy < in.h) ? in.data + static_cast<std::size_t>(iy) * in_row : nullptr;
       rows_inside = rows_inside && rows[ky];
     }
-    int8_t* dst = out.data + static_cast<std::size_t>(oy) * out.w * out.c;
-    for (int ox = 0; ox < out.w; ++ox, dst += out.c) {
+    int8_t* const row_dst = out.data + static_cast<std::size_t>(oy) * out.w * out.c;
+    const auto interior = [&](int ox) {
       const int ix0 = ox * a.stride_w - a.pad_left;
-      if (rows_inside && ix0 >= 0 && ix0 + span_w < in.w) {
-        const int8_t* first = rows[0] + static_cast<std::size_t>(ix0) * C;
-        for (int t = 0; t < L.taps; ++t) tap[t] = first + offset[t];
+      return rows_inside && ix0 >= 0 && ix0 + span_w < in.w;
+    };
+    for (int ox = 0; ox < out.w;) {
+      int8_t* dst[2] = {row_dst + static_cast<std::size_t>(ox) * out.c, nullptr};
+      const int ix0 = ox * a.stride_w - a.pad_left;
+      if (interior(ox)) {
+        const std::intptr_t first = reinterpret_cast<std::intptr_t>(rows[0] + static_cast<std::ptrdiff_t>(ix0) * C);
+        if (ox + 1 < out.w && interior(ox + 1)) {
+          const std::intptr_t two[2] = {first, first + step};
+          dst[1] = dst[0] + out.c;
+          dw_pixels<V, 2>(two, offset, L, bias, mult, weights, rq, dst);
+          ox += 2;
+        } else {
+          dw_pixels<V, 1>(&first, offset, L, bias, mult, weights, rq, dst);
+          ox += 1;
+        }
       } else {
         for (int ky = 0, t = 0; ky < a.kernel_h; ++ky) {
           for (int kx = 0, ix = ix0; kx < a.kernel_w; ++kx, ++t, ix += a.dilation_w) {
-            tap[t] = (rows[ky] && ix >= 0 && ix < in.w) ? rows[ky] + static_cast<std::size_t>(ix) * C : pad_row;
+            tab[t] = reinterpret_cast<std::intptr_t>(
+                (rows[ky] && ix >= 0 && ix < in.w) ? rows[ky] + static_cast<std::size_t>(ix) * C : pad_row);
           }
         }
-      }
-      int c0 = 0;
-      for (; c0 + W <= C; c0 += W) {
-        typename V::Acc acc = V::load_bias(bias + c0);
-        const int16_t* w = weights + static_cast<std::size_t>(c0) * 2;
-        for (int p = 0; p < L.pairs; ++p, w += pair_stride) acc = V::mac2(acc, tap[2 * p] + c0, tap[2 * p + 1] + c0, w);
-        V::store(acc, mult + c0, rq, dst + c0);
-      }
-      if (c0 < C) {
-        if constexpr (V::kMasked) {
-          const int n = C - c0;
-          typename V::Acc acc = V::load_bias(bias + c0);
-          const int16_t* w = weights + static_cast<std::size_t>(c0) * 2;
-          for (int p = 0; p < L.pairs; ++p, w += pair_stride)
-            acc = V::mac2_n(acc, tap[2 * p] + c0, tap[2 * p + 1] + c0, w, n);
-          V::store_n(acc, mult + c0, rq, dst + c0, n);
-        } else {
-          dw_tail_scalar(tap, L.pairs, L.cp, c0, C, bias, mult, weights, rq, dst);
-        }
+        const std::intptr_t zero = 0;
+        dw_pixels<V, 1>(&zero, tab, L, bias, mult, weights, rq, dst);
+        ox += 1;
       }
     }
   }

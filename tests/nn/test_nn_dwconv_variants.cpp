@@ -1,5 +1,5 @@
 // Every dwconv_i8 variant the CPU can run (nn/conv_kernels.h, kDwConvI8Variants) against the
-// specification dwconv2d_i8_ref, byte for byte: random shapes around the SIMD block widths (8, 16),
+// specification dwconv2d_i8_ref, byte for byte: random shapes around the SIMD block widths (8 to 64),
 // large kernels, strides, dilations and windows wholly in the padding, output row ranges (rows
 // outside the range untouched), saturation both ways and multipliers at and next to rounding ties.
 // Tensors live in exact-size heap buffers and the packed weights in an exact-size 64-byte-aligned
@@ -170,7 +170,9 @@ int fit_input(int random_in, int kernel, int dilation, int pad_before, int pad_a
   return random_in < needed ? needed : random_in;
 }
 
-const int kChannels[] = {1, 3, 7, 8, 15, 16, 17, 31, 32, 33, 48, 64, 65};
+// Around 8, 16 (the 16-bit layout's blocks) and 32, 64 (the byte layout's ymm / zmm blocks of
+// dwconv_i8__avx512vnni), and the model's 24, 48, 96.
+const int kChannels[] = {1, 3, 7, 8, 15, 16, 17, 24, 31, 32, 33, 47, 48, 63, 64, 65, 96, 127, 128, 129};
 
 TEST(NnDwConvVariants, ReportVariants) { EXPECT_FALSE(variants().empty()); }
 
@@ -231,6 +233,26 @@ TEST(NnDwConvVariants, LargeKernelsStridesDilations) {
   }
 }
 
+// The model's depthwise layers (bench/nn_conv.cpp) and wider rows, so that runs of interior pixels
+// (processed two at a time by some variants) and their odd leftovers both occur.
+TEST(NnDwConvVariants, ModelShapes) {
+  std::mt19937 rng(2468);
+  struct Geometry { int h, w, c, k, s, d; };
+  const Geometry cases[] = {{60, 80, 24, 3, 2, 1}, {30, 40, 48, 3, 1, 1}, {30, 40, 48, 3, 2, 1},
+                            {15, 20, 96, 3, 1, 2}, {13, 23, 24, 3, 1, 1}, {11, 21, 80, 5, 1, 1},
+                            {9, 17, 112, 3, 2, 1}, {7, 19, 160, 3, 1, 1}};
+  for (const Geometry& g : cases) {
+    DwCase k;
+    k.h = g.h; k.w = g.w; k.c = g.c;
+    k.kh = k.kw = g.k; k.sh = k.sw = g.s; k.dh = k.dw = g.d;
+    k.pt = k.pl = k.pb = k.pr = g.d * (g.k - 1) / 2;
+    random_quantisation(k, rng);
+    const DwData d = random_data(k, rng);
+    expect_all_variants_match(k, d, "model shape");
+    if (HasFatalFailure()) return;
+  }
+}
+
 TEST(NnDwConvVariants, RowRanges) {
   std::mt19937 rng(4242);
   struct Geometry { int h, w, c, k, s, d, pad; };
@@ -283,7 +305,7 @@ TEST(NnDwConvVariants, RowRanges) {
 
 TEST(NnDwConvVariants, Saturation) {
   std::mt19937 rng(99);
-  for (int c : {5, 8, 16, 23, 48}) {
+  for (int c : {5, 8, 16, 23, 48, 96, 100}) {
     DwCase k;
     k.h = 5; k.w = 6; k.c = c;
     k.kh = k.kw = 3;
@@ -313,7 +335,7 @@ TEST(NnDwConvVariants, RoundingTies) {
   const float half = 0.5f;
   const float multipliers[] = {half, std::nextafter(half, 0.0f), std::nextafter(half, 1.0f), 0.25f, 0.125f,
                                0.0625f, 1.5f, 0.75f, std::nextafter(0.25f, 0.0f), std::nextafter(0.25f, 1.0f)};
-  for (int c : {7, 16, 19, 40}) {
+  for (int c : {7, 16, 19, 40, 72}) {
     for (int kernel : {1, 3}) {
       DwCase k;
       k.h = 4; k.w = 7; k.c = c;
