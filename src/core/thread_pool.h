@@ -7,6 +7,9 @@
 // The default is one thread: the pipeline already runs its stages in parallel, so a pool is only
 // worth its wake-up cost for a stage that is the bottleneck on an otherwise idle core. With one
 // thread parallel_for() is a plain loop on the caller: no workers, no locks, no atomics.
+// Cost of an empty call with 2 threads (x86-64, 2 cores): about 0.5 us while the worker is still
+// spinning from the previous call on its own core, 4-30 us when it has to be woken from sleep,
+// about 6 us when both threads share one busy core. Split work into tasks of tens of microseconds.
 //
 // Threads: create() and the destructor from one owning thread. parallel_for() from any thread, one
 // call at a time per pool: a pool with workers serialises concurrent calls with a mutex (the second
