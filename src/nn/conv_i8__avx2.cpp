@@ -12,16 +12,15 @@ struct Avx2 {
   static constexpr int kLanes = 8;
   static constexpr int kRegisters = 16;
   static void widen8(uint64_t bytes, int16_t* dst) {
-    _mm_store_si128(reinterpret_cast<__m128i*>(dst), _mm_cvtepi8_epi16(_mm_cvtsi64_si128(static_cast<long long>(bytes))));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), _mm_cvtepi8_epi16(_mm_cvtsi64_si128(static_cast<long long>(bytes))));
   }
   static R broadcast_pair(const int16_t* p) {
     int32_t pair;
     std::memcpy(&pair, p, 4);
     return _mm256_set1_epi32(pair);
   }
-  static R madd_add(R acc, R x, const int16_t* w) {
-    return _mm256_add_epi32(acc, _mm256_madd_epi16(x, _mm256_load_si256(reinterpret_cast<const __m256i*>(w))));
-  }
+  static R load_i16(const int16_t* w) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(w)); }
+  static R madd_add(R acc, R x, R w) { return _mm256_add_epi32(acc, _mm256_madd_epi16(x, w)); }
   static R load_i32(const int32_t* p) { return _mm256_load_si256(reinterpret_cast<const __m256i*>(p)); }
   // nn/requantize.h on 8 lanes; `valid` (1..8) channels are stored.
   static void store_requantized(R acc, const float* mult, int32_t zp, int32_t lo, int32_t hi, int8_t* dst, int valid) {
@@ -42,9 +41,9 @@ struct Avx2 {
 };
 
 constexpr ConvPackLayout kLayout{8, 2, 2, 8, 0};
-std::size_t packed_bytes(const ConvShape& s) { return conv_packed_bytes(kLayout, s); }
-void pack(const ConvShape& s, const ConvParams& p, void* dst) { conv_pack(kLayout, s, p, dst); }
-void run(const ConvArgs& a) { conv_rows<PmaddwdTile<Avx2>>(a); }
+std::size_t packed_bytes(const ConvShape& s) { return conv_packed_bytes(kLayout, pmaddwd_packing_shape(s)); }
+void pack(const ConvShape& s, const ConvParams& p, void* dst) { conv_pack(kLayout, pmaddwd_packing_shape(s), p, dst); }
+void run(const ConvArgs& a) { pmaddwd_conv_rows<Avx2>(a); }
 
 }  // namespace
 

@@ -18,6 +18,8 @@ constexpr ConvPackLayout kLayout{16, 4, 1, 4, 128};
 
 struct Avx512Tile {
   static constexpr int kMaxPanels = 4;
+  // measured: 4 + 2 panels beat 3 + 3 for 96 channels
+  static constexpr bool kSixPanelsAsThrees = false;
   // Accumulators MR x NV plus NV weight registers and one broadcast within 32 zmm.
   template <int NV>
   static constexpr int pixels() { return NV == 1 ? 10 : NV == 2 ? 6 : NV == 3 ? 6 : 5; }

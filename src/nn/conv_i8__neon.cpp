@@ -24,6 +24,7 @@ inline void mla_lane(int32x4_t (&acc)[MR][NV], const int16_t* const (&w)[NV], in
 
 struct NeonTile {
   static constexpr int kMaxPanels = 4;
+  static constexpr bool kSixPanelsAsThrees = false;
   // MR x NV accumulators + MR widened pixels + one weight register within 32.
   template <int NV>
   static constexpr int pixels() { return NV == 1 ? 12 : NV == 2 ? 8 : NV == 3 ? 6 : 5; }

@@ -16,6 +16,7 @@ constexpr ConvPackLayout kLayout{4, 4, 1, 4, 0};
 
 struct NeonDotTile {
   static constexpr int kMaxPanels = 4;
+  static constexpr bool kSixPanelsAsThrees = false;
   // MR x NV accumulators + NV weights + one broadcast within 32 registers.
   template <int NV>
   static constexpr int pixels() { return NV == 1 ? 12 : NV == 2 ? 10 : NV == 3 ? 8 : 6; }

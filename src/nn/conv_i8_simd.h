@@ -7,12 +7,14 @@
 //
 // A Tile class provides:
 //   static constexpr int kMaxPanels;               panels per call (NV <= kMaxPanels)
+//   static constexpr bool kSixPanelsAsThrees;      group panel counts divisible by 3 (not 4) in threes
 //   template <int NV> static constexpr int pixels();  MR for NV panels (register budget)
 //   template <int NV, int MR> static void run(const TileJob& job);
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #include "nn/conv_i8_pack.h"
 
@@ -43,13 +45,24 @@ inline void tap_pointers(const TileJob& j, int ky, int kx, const int8_t* p[MR]) 
   }
 }
 
-// Copies up to 8 bytes (n < 8 for a channel tail) into a zero-filled 8-byte word: never reads past
-// the n bytes that belong to the pixel.
+// Copies n < 8 bytes (a channel tail) into a zero-filled 8-byte word, in at most three loads
+// (4, 2, 1 bytes): never reads past the n bytes that belong to the pixel.
 inline uint64_t load_tail8(const int8_t* p, int n) {
-  uint8_t b[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  for (int i = 0; i < n; ++i) b[i] = static_cast<uint8_t>(p[i]);
   uint64_t v = 0;
-  for (int i = 7; i >= 0; --i) v = (v << 8) | b[i];
+  int at = 0;
+  if (n & 4) {
+    uint32_t four;
+    std::memcpy(&four, p, 4);
+    v = four;
+    at = 4;
+  }
+  if (n & 2) {
+    uint16_t two;
+    std::memcpy(&two, p + at, 2);
+    v |= uint64_t{two} << (8 * at);
+    at += 2;
+  }
+  if (n & 1) v |= uint64_t{static_cast<uint8_t>(p[at])} << (8 * at);
   return v;
 }
 
@@ -65,8 +78,8 @@ inline void run_panels(const TileJob& base, int npix_total, int panel0) {
   }
 }
 
-// Dispatches the panel groups of one output row. Panels go kMaxPanels at a time; the rest in one
-// narrower call.
+// Dispatches the panel groups of one output row. Panels go kMaxPanels at a time (or threes, see
+// kSixPanelsAsThrees); the rest in one narrower call.
 template <class Tile>
 void conv_rows(const ConvArgs& a) {
   const ConvPackHeader& h = conv_header(a.packed);
@@ -76,6 +89,10 @@ void conv_rows(const ConvArgs& a) {
   for (int oy = a.oy_begin; oy < oy_end; ++oy) {
     TileJob j{&a, a.packed, oy, 0, 0, 0};
     int p = 0;
+    // A tile may ask for six panels (48 channels on AVX2) as 3 + 3 rather than 4 + 2.
+    if (Tile::kSixPanelsAsThrees && kMax == 4 && h.panels % 4 != 0 && h.panels % 3 == 0) {
+      for (; p + 3 <= h.panels; p += 3) run_panels<Tile, (kMax > 3 ? 3 : 1)>(j, a.out.w, p);
+    }
     for (; p + kMax <= h.panels; p += kMax) run_panels<Tile, kMax>(j, a.out.w, p);
     switch (h.panels - p) {
       case 0: break;

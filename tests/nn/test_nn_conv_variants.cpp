@@ -150,6 +150,19 @@ TEST(NnConvVariants, WideRowsAndPointwise) {
   }
 }
 
+// The PMADDWD variants pack a k x k layer whose channels are not a multiple of 8 as one tap of
+// taps x cin channels when that is at most 256 values: both sides of that boundary, with padding.
+TEST(NnConvVariants, WholeWindowPackingBoundary) {
+  std::mt19937 rng(606);
+  for (auto [k, cin] : {std::pair{3, 28}, {3, 29}, {5, 10}, {5, 11}, {3, 4}, {7, 5}, {2, 3}}) {
+    Case c{9, 11, cin, 19, k, k, 1, 1, k / 2, k / 2, k / 2, k / 2};
+    expect_variants_match(make_layer(c, rng));
+    Case s2{9, 12, cin, 24, k, k, 2, 1, k / 2, k / 2, k / 2, k / 2};
+    expect_variants_match(make_layer(s2, rng));
+    if (HasFatalFailure()) return;
+  }
+}
+
 TEST(NnConvVariants, RowRangesWriteOnlyTheirRows) {
   std::mt19937 rng(404);
   const Layer l = make_layer(Case{9, 13, 16, 20, 3, 3, 1, 1, 1, 1, 1, 1}, rng);
