@@ -1,17 +1,20 @@
 // Graph executor: binds each layer once (kernel function pointer + arguments with arena pointers),
 // then run() is a loop of indirect calls. Convolutions take the best variant of their family's
 // table (nn/conv_kernels.h) that the CPU, EF_ISA and ExecutorOptions::max_isa allow, with weights
-// repacked for it at creation; the other layers run their scalar reference (a small share of the
-// time: see docs/results.md).
+// repacked for it at creation; add and max pool likewise from nn/eltwise_kernels.h; the other
+// layers (concat, clamp, avg pool, upsampling, softmax) run their scalar reference.
 #include "nn/executor.h"
 
 #include <cmath>
 #include <cstring>
 
+#include "nn/eltwise_kernels.h"
+
 namespace ef::nn {
 
 struct Executor::Step {
   LayerType type;
+  const char* variant_name = nullptr;  // layers with a variant table
   const kernels::KernelVariant<ConvKernelPtr>* conv = nullptr;
   AddI8Fn add = nullptr;
   ConcatI8Fn concat = nullptr;
@@ -36,10 +39,9 @@ namespace {
 
 // The best row of `table` that the CPU (capped by EF_ISA) runs and that is at most `max_isa`
 // (enum order; rows are lowest ISA first and row 0 is the scalar reference).
-template <std::size_t N>
-const kernels::KernelVariant<ConvKernelPtr>* pick(const kernels::KernelVariant<ConvKernelPtr> (&table)[N],
-                                                  kernels::Isa max_isa) {
-  const kernels::KernelVariant<ConvKernelPtr>* best = &table[0];
+template <class Fn, std::size_t N>
+const kernels::KernelVariant<Fn>* pick(const kernels::KernelVariant<Fn> (&table)[N], kernels::Isa max_isa) {
+  const kernels::KernelVariant<Fn>* best = &table[0];
   for (const auto& v : table)
     if (kernels::isa_available(v.isa) && static_cast<int>(v.isa) <= static_cast<int>(max_isa)) best = &v;
   return best;
@@ -54,7 +56,7 @@ ConvShape conv_shape(const ModelDesc& d, const LayerDesc& l) {
 }  // namespace
 
 const char* Executor::kernel_name(std::size_t layer) const {
-  return layer < steps_.size() && steps_[layer].conv ? steps_[layer].conv->name : "";
+  return layer < steps_.size() && steps_[layer].variant_name ? steps_[layer].variant_name : "";
 }
 
 Result<std::unique_ptr<Executor>> Executor::create(const Model& model, const ExecutorOptions& options) {
@@ -128,6 +130,7 @@ Status Executor::bind() {
       case LayerType::kPointwiseConv2d: {
         s.conv = l.type == LayerType::kDepthwiseConv2d ? pick(kDwConvI8Variants, options_.max_isa)
                                                        : pick(kConvI8Variants, options_.max_isa);
+        s.variant_name = s.conv->name;
         ConvArgs& a = s.conv_args;
         a.in = view(l.inputs[0]);
         a.out = mut_view(l.output);
@@ -139,8 +142,10 @@ Status Executor::bind() {
         a.out_min = l.out_min; a.out_max = l.out_max;
         break;
       }
-      case LayerType::kAdd:
-        s.add = add_i8_ref;
+      case LayerType::kAdd: {
+        const auto* v = pick(kAddI8Variants, options_.max_isa);
+        s.add = v->fn;
+        s.variant_name = v->name;
         s.add_args.a = view(l.inputs[0]);
         s.add_args.b = view(l.inputs[1]);
         s.add_args.out = mut_view(l.output);
@@ -148,6 +153,7 @@ Status Executor::bind() {
         s.add_args.rq_b = p.requant[1];
         s.add_args.out_min = l.out_min; s.add_args.out_max = l.out_max;
         break;
+      }
       case LayerType::kConcat:
         s.concat = concat_i8_ref;
         s.concat_args.count = int(l.inputs.size());
@@ -165,7 +171,13 @@ Status Executor::bind() {
         break;
       case LayerType::kMaxPool:
       case LayerType::kAvgPool:
-        s.pool = l.type == LayerType::kMaxPool ? maxpool_i8_ref : avgpool_i8_ref;
+        if (l.type == LayerType::kMaxPool) {
+          const auto* v = pick(kMaxPoolI8Variants, options_.max_isa);
+          s.pool = v->fn;
+          s.variant_name = v->name;
+        } else {
+          s.pool = avgpool_i8_ref;
+        }
         s.pool_args.in = view(l.inputs[0]);
         s.pool_args.out = mut_view(l.output);
         s.pool_args.kernel_h = int(l.kernel_h); s.pool_args.kernel_w = int(l.kernel_w);

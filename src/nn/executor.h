@@ -61,7 +61,8 @@ class Executor {
   const int8_t* tensor_data(uint32_t tensor_id) const;
 
   const MemoryPlan& plan() const { return plan_; }
-  // The kernel variant layer `layer` runs ("conv_i8__avx2"...; "" for layers without variants).
+  // The kernel variant layer `layer` runs ("conv_i8__avx2", "add_i8__neon"...; "" for layers
+  // that have only their scalar reference).
   const char* kernel_name(std::size_t layer) const;
   // Bytes of repacked weights held by this executor.
   std::size_t packed_bytes() const { return packed_ ? packed_->used() : 0; }
