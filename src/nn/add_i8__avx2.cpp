@@ -26,18 +26,6 @@ __m256i eighth(__m128i a8, __m128i b8, const Consts& k) {
   return _mm256_add_epi32(_mm256_cvtps_epi32(y), k.zo);
 }
 
-void tail(const AddArgs& a, std::size_t i, std::size_t n) {
-  if (i >= n) return;
-  AddArgs t = a;
-  t.a.data += i;
-  t.b.data += i;
-  t.out.data += i;
-  t.a.h = t.b.h = t.out.h = 1;
-  t.a.w = t.b.w = t.out.w = 1;
-  t.a.c = t.b.c = t.out.c = static_cast<int>(n - i);
-  add_i8_ref(t);
-}
-
 }  // namespace
 
 void add_i8__avx2(const AddArgs& a) {
@@ -71,7 +59,7 @@ void add_i8__avx2(const AddArgs& a) {
     const __m256i fix = _mm256_permutevar8x32_epi32(b, _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(po + i), fix);
   }
-  tail(a, i, n);
+  add_i8_ref_range(a, i, n);
 }
 
 }  // namespace ef::nn

@@ -28,18 +28,6 @@ int16x4_t quarter(int16x4_t a16, int16x4_t b16, const Consts& k) {
   return vqmovn_s32(vaddq_s32(vcvtnq_s32_f32(y), k.zo));
 }
 
-void tail(const AddArgs& a, std::size_t i, std::size_t n) {
-  if (i >= n) return;
-  AddArgs t = a;
-  t.a.data += i;
-  t.b.data += i;
-  t.out.data += i;
-  t.a.h = t.b.h = t.out.h = 1;
-  t.a.w = t.b.w = t.out.w = 1;
-  t.a.c = t.b.c = t.out.c = static_cast<int>(n - i);
-  add_i8_ref(t);
-}
-
 }  // namespace
 
 void add_i8__neon(const AddArgs& a) {
@@ -67,7 +55,7 @@ void add_i8__neon(const AddArgs& a) {
                                       quarter(vget_high_s16(ahi), vget_high_s16(bhi), k));
     vst1q_s8(po + i, vcombine_s8(vqmovn_s16(r0), vqmovn_s16(r1)));
   }
-  tail(a, i, n);
+  add_i8_ref_range(a, i, n);
 }
 
 }  // namespace ef::nn

@@ -3,7 +3,7 @@
 // float(a - za) * ma + float(b - zb) * mb (two MULPS and one ADDPS, no FMA), clamps with MAXPS /
 // MINPS, rounds half to even with CVTPS2DQ, adds the output zero point and packs with saturation
 // (values are already in range). Both inputs are loaded before the store, so out may alias a or b.
-// The last n mod 16 elements go through add_i8_ref on a sub-range view.
+// The last n mod 16 elements go through add_i8_ref_range.
 #include <smmintrin.h>
 
 #include <cstddef>
@@ -25,19 +25,6 @@ __m128i quarter(__m128i a32, __m128i b32, const Consts& k) {
   __m128 y = _mm_add_ps(ya, yb);
   y = _mm_min_ps(_mm_max_ps(y, k.lo), k.hi);
   return _mm_add_epi32(_mm_cvtps_epi32(y), k.zo);
-}
-
-// Elements [i, n) by the reference.
-void tail(const AddArgs& a, std::size_t i, std::size_t n) {
-  if (i >= n) return;
-  AddArgs t = a;
-  t.a.data += i;
-  t.b.data += i;
-  t.out.data += i;
-  t.a.h = t.b.h = t.out.h = 1;
-  t.a.w = t.b.w = t.out.w = 1;
-  t.a.c = t.b.c = t.out.c = static_cast<int>(n - i);
-  add_i8_ref(t);
 }
 
 }  // namespace
@@ -66,7 +53,7 @@ void add_i8__sse41(const AddArgs& a) {
     const __m128i r = _mm_packs_epi16(_mm_packs_epi32(r0, r1), _mm_packs_epi32(r2, r3));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(po + i), r);
   }
-  tail(a, i, n);
+  add_i8_ref_range(a, i, n);
 }
 
 }  // namespace ef::nn

@@ -7,7 +7,6 @@
 #include <cstring>
 
 #include "nn/conv_i8_neon.h"
-#include "nn/conv_i8_simd.h"
 
 namespace ef::nn {
 namespace {
@@ -54,16 +53,7 @@ struct NeonDotTile {
       }
     }
 
-    const float* mult = conv_mult(j.blob) + j.panel0 * 4;
-    for (int v = 0; v < NV; ++v) {
-      const int c0 = (j.panel0 + v) * 4;
-      const int valid = h.cout - c0 < 4 ? h.cout - c0 : 4;
-      for (int m = 0; m < MR; ++m) {
-        if (m >= j.npix) break;
-        int8_t* dst = a.out.data + (std::ptrdiff_t(j.oy) * a.out.w + j.ox0 + m) * a.out.c + c0;
-        store_requantized_neon(acc[m][v], mult + 4 * v, a.out.zero_point, a.out_min, a.out_max, dst, valid);
-      }
-    }
+    store_tile_neon<NV, MR>(j, acc);
   }
 };
 

@@ -1,10 +1,12 @@
 // What the two AArch64 conv_i8 variants share: the requantising store of one panel of 4 output
-// channels (nn/requantize.h on NEON). Internal linkage (the rule in kernels/variants.h).
+// channels (nn/requantize.h on NEON) and of a finished tile. Internal linkage (the rule in kernels/variants.h).
 #pragma once
 
 #include <arm_neon.h>
 
 #include <cstdint>
+
+#include "nn/conv_i8_simd.h"
 
 namespace ef::nn {
 namespace {
@@ -24,6 +26,22 @@ inline void store_requantized_neon(int32x4_t acc, const float* mult, int32_t zp,
     int8_t tmp[8];
     vst1_s8(tmp, q8);
     for (int i = 0; i < valid; ++i) dst[i] = tmp[i];
+  }
+}
+
+// Requantises and stores a finished MR x NV tile of 4-channel panels (pixels past j.npix skipped).
+template <int NV, int MR>
+inline void store_tile_neon(const TileJob& j, const int32x4_t (&acc)[MR][NV]) {
+  const ConvArgs& a = *j.a;
+  const ConvPackHeader& h = conv_header(j.blob);
+  const float* mult = conv_mult(j.blob) + j.panel0 * 4;
+  for (int v = 0; v < NV; ++v) {
+    const int c0 = (j.panel0 + v) * 4;
+    const int valid = h.cout - c0 < 4 ? h.cout - c0 : 4;
+    for (int m = 0; m < MR && m < j.npix; ++m) {
+      int8_t* dst = a.out.data + (std::ptrdiff_t(j.oy) * a.out.w + j.ox0 + m) * a.out.c + c0;
+      store_requantized_neon(acc[m][v], mult + 4 * v, a.out.zero_point, a.out_min, a.out_max, dst, valid);
+    }
   }
 }
 

@@ -4,6 +4,18 @@
 
 namespace ef::nn {
 
+void add_i8_ref_range(const AddArgs& a, std::size_t begin, std::size_t end) {
+  if (begin >= end) return;
+  AddArgs t = a;  // a 1 x 1 x (end - begin) view of the range
+  t.a.data += begin;
+  t.b.data += begin;
+  t.out.data += begin;
+  t.a.h = t.b.h = t.out.h = 1;
+  t.a.w = t.b.w = t.out.w = 1;
+  t.a.c = t.b.c = t.out.c = static_cast<int>(end - begin);
+  add_i8_ref(t);
+}
+
 const kernels::KernelVariant<AddI8Fn>& add_i8_selected() {
   static const kernels::KernelVariant<AddI8Fn>& v = kernels::best_variant(kAddI8Variants, cpu_features());
   return v;

@@ -7,6 +7,8 @@
 // follow kernels/variants.h: `<family>.inc` lists the variants lowest ISA first, row 0 the reference.
 #pragma once
 
+#include <cstddef>
+
 #include "kernels/variants.h"
 #include "nn/layers_ref.h"
 
@@ -33,6 +35,10 @@ inline constexpr kernels::KernelVariant<PoolI8Fn> kMaxPoolI8Variants[] = {
 };
 
 // The variants the executor may use on this CPU (detection capped by EF_ISA, platform/cpu_features.h).
+// Elements [begin, end) of a flat add by the reference: the SIMD variants' tail. Compiled for the
+// baseline ISA.
+void add_i8_ref_range(const AddArgs& a, std::size_t begin, std::size_t end);
+
 const kernels::KernelVariant<AddI8Fn>& add_i8_selected();
 const kernels::KernelVariant<PoolI8Fn>& maxpool_i8_selected();
 

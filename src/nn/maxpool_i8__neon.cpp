@@ -1,96 +1,32 @@
-// maxpool_i8 at the AArch64 baseline (Advanced SIMD): NHWC, vectorised over channels, 16 per SMAX.
-// The window of each output pixel is clipped to the input once (padding positions are skipped, so
-// padding never wins; an empty window gives -128 as in the reference). Channel tails: the last 16
-// channels again as an overlapping block when C >= 16, else 8 channels in a d register and the rest
-// one at a time; nothing is read or written past a pixel's channels.
+// maxpool_i8 on NEON: NHWC, vectorised over channels, 16 per SMAX q, 8 per SMAX d, the rest one at
+// a time; the loop nest is nn/maxpool_i8_simd.h.
 #include <arm_neon.h>
 
-#include <cstddef>
-#include <cstdint>
-
 #include "nn/eltwise_kernels.h"
+#include "nn/maxpool_i8_simd.h"
 
 namespace ef::nn {
-
 namespace {
 
-// The window of one output pixel clipped to the input: rows [0, ny) and columns [0, nx) starting
-// at `src` (padding positions are skipped, never read). ny or nx is 0 when the window lies wholly
-// in the padding; then the output is -128, as in the reference.
-struct Window {
-  const int8_t* src;
-  int ny, nx;
+struct Q16 {
+  using R = int8x16_t;
+  static constexpr int kLanes = 16;
+  static R lowest() { return vdupq_n_s8(-128); }
+  static R load(const int8_t* p) { return vld1q_s8(p); }
+  static R max(R a, R b) { return vmaxq_s8(a, b); }
+  static void store(int8_t* p, R v) { vst1q_s8(p, v); }
 };
-
-Window clip_window(const PoolArgs& a, int oy, int ox) {
-  const int iy0 = oy * a.stride_h - a.pad_top, ix0 = ox * a.stride_w - a.pad_left;
-  const int ky0 = iy0 < 0 ? -iy0 : 0, kx0 = ix0 < 0 ? -ix0 : 0;
-  const int ky1 = a.kernel_h < a.in.h - iy0 ? a.kernel_h : a.in.h - iy0;
-  const int kx1 = a.kernel_w < a.in.w - ix0 ? a.kernel_w : a.in.w - ix0;
-  Window win{a.in.data, ky1 - ky0, kx1 - kx0};
-  if (win.ny <= 0 || win.nx <= 0) {
-    win.ny = win.nx = 0;
-  } else {
-    win.src += (std::ptrdiff_t(iy0 + ky0) * a.in.w + (ix0 + kx0)) * a.in.c;
-  }
-  return win;
-}
-
-// Channels [c0, c1) one at a time (tails narrower than the narrowest vector).
-void scalar_channels(const Window& win, std::ptrdiff_t row, std::ptrdiff_t px, int c0, int c1, int8_t* dst) {
-  for (int c = c0; c < c1; ++c) {
-    int32_t m = -128;
-    for (int y = 0; y < win.ny; ++y)
-      for (int x = 0; x < win.nx; ++x) {
-        const int32_t v = win.src[y * row + x * px + c];
-        if (v > m) m = v;
-      }
-    dst[c] = static_cast<int8_t>(m);
-  }
-}
-
-// Channels [c, c + lanes) of one output pixel.
-void block16(const Window& win, std::ptrdiff_t row, std::ptrdiff_t px, int c, int8_t* dst) {
-  int8x16_t acc = vdupq_n_s8(-128);
-  for (int y = 0; y < win.ny; ++y) {
-    const int8_t* p = win.src + y * row + c;
-    for (int x = 0; x < win.nx; ++x, p += px)
-      acc = vmaxq_s8(acc, vld1q_s8(p));
-  }
-  vst1q_s8(dst + c, acc);
-}
-
-// Channels [c, c + lanes) of one output pixel.
-void block8(const Window& win, std::ptrdiff_t row, std::ptrdiff_t px, int c, int8_t* dst) {
-  int8x8_t acc = vdup_n_s8(-128);
-  for (int y = 0; y < win.ny; ++y) {
-    const int8_t* p = win.src + y * row + c;
-    for (int x = 0; x < win.nx; ++x, p += px)
-      acc = vmax_s8(acc, vld1_s8(p));
-  }
-  vst1_s8(dst + c, acc);
-}
+struct D8 {
+  using R = int8x8_t;
+  static constexpr int kLanes = 8;
+  static R lowest() { return vdup_n_s8(-128); }
+  static R load(const int8_t* p) { return vld1_s8(p); }
+  static R max(R a, R b) { return vmax_s8(a, b); }
+  static void store(int8_t* p, R v) { vst1_s8(p, v); }
+};
 
 }  // namespace
 
-void maxpool_i8__neon(const PoolArgs& a) {
-  const int C = a.out.c;
-  const std::ptrdiff_t px = a.in.c, row = std::ptrdiff_t(a.in.w) * a.in.c;
-  for (int oy = 0; oy < a.out.h; ++oy)
-    for (int ox = 0; ox < a.out.w; ++ox) {
-      const Window win = clip_window(a, oy, ox);
-      int8_t* dst = a.out.data + (std::ptrdiff_t(oy) * a.out.w + ox) * C;
-      int c = 0;
-      for (; c + 16 <= C; c += 16) block16(win, row, px, c, dst);
-      if (c < C) {
-        if (C >= 16) {
-          block16(win, row, px, C - 16, dst);
-        } else {
-          if (c + 8 <= C) { block8(win, row, px, c, dst); c += 8; }
-          scalar_channels(win, row, px, c, C, dst);
-        }
-      }
-    }
-}
+void maxpool_i8__neon(const PoolArgs& a) { maxpool_rows<PoolChannels<Q16, D8>>(a); }
 
 }  // namespace ef::nn
