@@ -1,5 +1,5 @@
-// The run-time choice of the element-wise / pooling variants (nn/eltwise_kernels.h). The reference
-// rows are add_i8_ref and maxpool_i8_ref in nn/layers_ref.cpp.
+// The run-time choice of the element-wise, pooling, upsampling and softmax variants
+// (nn/eltwise_kernels.h). The reference rows are the `<family>_ref` functions of nn/layers_ref.cpp.
 #include "nn/eltwise_kernels.h"
 
 namespace ef::nn {
@@ -22,6 +22,32 @@ const kernels::KernelVariant<AddI8Fn>& add_i8_selected() {
 }
 const kernels::KernelVariant<PoolI8Fn>& maxpool_i8_selected() {
   static const kernels::KernelVariant<PoolI8Fn>& v = kernels::best_variant(kMaxPoolI8Variants, cpu_features());
+  return v;
+}
+const kernels::KernelVariant<PoolI8Fn>& avgpool_i8_selected() {
+  static const kernels::KernelVariant<PoolI8Fn>& v = kernels::best_variant(kAvgPoolI8Variants, cpu_features());
+  return v;
+}
+const kernels::KernelVariant<ClampI8Fn>& clamp_i8_selected() {
+  static const kernels::KernelVariant<ClampI8Fn>& v = kernels::best_variant(kClampI8Variants, cpu_features());
+  return v;
+}
+const kernels::KernelVariant<ConcatI8Fn>& concat_i8_selected() {
+  static const kernels::KernelVariant<ConcatI8Fn>& v = kernels::best_variant(kConcatI8Variants, cpu_features());
+  return v;
+}
+const kernels::KernelVariant<UpsampleI8Fn>& upsample_nearest_i8_selected() {
+  static const kernels::KernelVariant<UpsampleI8Fn>& v =
+      kernels::best_variant(kUpsampleNearestI8Variants, cpu_features());
+  return v;
+}
+const kernels::KernelVariant<UpsampleI8Fn>& upsample_bilinear_i8_selected() {
+  static const kernels::KernelVariant<UpsampleI8Fn>& v =
+      kernels::best_variant(kUpsampleBilinearI8Variants, cpu_features());
+  return v;
+}
+const kernels::KernelVariant<SoftmaxI8Fn>& softmax_i8_selected() {
+  static const kernels::KernelVariant<SoftmaxI8Fn>& v = kernels::best_variant(kSoftmaxI8Variants, cpu_features());
   return v;
 }
 

@@ -1,8 +1,8 @@
 // Graph executor: binds each layer once (kernel function pointer + arguments with arena pointers),
 // then run() is a loop of indirect calls. Convolutions take the best variant of their family's
 // table (nn/conv_kernels.h) that the CPU, EF_ISA and ExecutorOptions::max_isa allow, with weights
-// repacked for it at creation; add and max pool likewise from nn/eltwise_kernels.h; the other
-// layers (concat, clamp, avg pool, upsampling, softmax) run their scalar reference.
+// repacked for it at creation; every other layer type (add, concat, clamp, max / avg pool, nearest /
+// bilinear upsampling, softmax) likewise from its table in nn/eltwise_kernels.h.
 #include "nn/executor.h"
 
 #include <cmath>
@@ -14,7 +14,7 @@ namespace ef::nn {
 
 struct Executor::Step {
   LayerType type;
-  const char* variant_name = nullptr;  // layers with a variant table
+  const char* variant_name = nullptr;  // the row of the layer's variant table
   const kernels::KernelVariant<ConvKernelPtr>* conv = nullptr;
   AddI8Fn add = nullptr;
   ConcatI8Fn concat = nullptr;
@@ -154,8 +154,10 @@ Status Executor::bind() {
         s.add_args.out_min = l.out_min; s.add_args.out_max = l.out_max;
         break;
       }
-      case LayerType::kConcat:
-        s.concat = concat_i8_ref;
+      case LayerType::kConcat: {
+        const auto* v = pick(kConcatI8Variants, options_.max_isa);
+        s.concat = v->fn;
+        s.variant_name = v->name;
         s.concat_args.count = int(l.inputs.size());
         for (std::size_t k = 0; k < l.inputs.size(); ++k) {
           s.concat_args.in[k] = view(l.inputs[k]);
@@ -163,21 +165,22 @@ Status Executor::bind() {
         }
         s.concat_args.out = mut_view(l.output);
         break;
-      case LayerType::kClamp:
-        s.clamp = clamp_i8_ref;
+      }
+      case LayerType::kClamp: {
+        const auto* v = pick(kClampI8Variants, options_.max_isa);
+        s.clamp = v->fn;
+        s.variant_name = v->name;
         s.clamp_args.in = view(l.inputs[0]);
         s.clamp_args.out = mut_view(l.output);
         s.clamp_args.out_min = l.out_min; s.clamp_args.out_max = l.out_max;
         break;
+      }
       case LayerType::kMaxPool:
-      case LayerType::kAvgPool:
-        if (l.type == LayerType::kMaxPool) {
-          const auto* v = pick(kMaxPoolI8Variants, options_.max_isa);
-          s.pool = v->fn;
-          s.variant_name = v->name;
-        } else {
-          s.pool = avgpool_i8_ref;
-        }
+      case LayerType::kAvgPool: {
+        const auto* v = l.type == LayerType::kMaxPool ? pick(kMaxPoolI8Variants, options_.max_isa)
+                                                      : pick(kAvgPoolI8Variants, options_.max_isa);
+        s.pool = v->fn;
+        s.variant_name = v->name;
         s.pool_args.in = view(l.inputs[0]);
         s.pool_args.out = mut_view(l.output);
         s.pool_args.kernel_h = int(l.kernel_h); s.pool_args.kernel_w = int(l.kernel_w);
@@ -185,17 +188,25 @@ Status Executor::bind() {
         s.pool_args.pad_top = int(l.pad_top); s.pool_args.pad_left = int(l.pad_left);
         s.pool_args.requant_by_count = p.requant.data();
         break;
-      case LayerType::kUpsample:
-        s.upsample = l.mode == UpsampleMode::kNearest ? upsample_nearest_i8_ref : upsample_bilinear_i8_ref;
+      }
+      case LayerType::kUpsample: {
+        const auto* v = l.mode == UpsampleMode::kNearest ? pick(kUpsampleNearestI8Variants, options_.max_isa)
+                                                         : pick(kUpsampleBilinearI8Variants, options_.max_isa);
+        s.upsample = v->fn;
+        s.variant_name = v->name;
         s.upsample_args.in = view(l.inputs[0]);
         s.upsample_args.out = mut_view(l.output);
         s.upsample_args.factor = int(l.factor);
         break;
-      case LayerType::kSoftmax:
-        s.softmax = softmax_i8_ref;
+      }
+      case LayerType::kSoftmax: {
+        const auto* v = pick(kSoftmaxI8Variants, options_.max_isa);
+        s.softmax = v->fn;
+        s.variant_name = v->name;
         s.softmax_args.in = view(l.inputs[0]);
         s.softmax_args.exp_table = p.exp_table.data();
         break;
+      }
     }
   }
   return {};

@@ -33,8 +33,8 @@ struct ExecutorOptions {
 
 class Executor {
  public:
-  // Plans the arena, allocates it once, picks each convolution's kernel variant, repacks its
-  // weights into that variant's layout (once, here) and binds every layer to its buffers.
+  // Plans the arena, allocates it once, picks each layer's kernel variant, repacks convolution
+  // weights into their variant's layout (once, here) and binds every layer to its buffers.
   static Result<std::unique_ptr<Executor>> create(const Model& model, const ExecutorOptions& options);
   static Result<std::unique_ptr<Executor>> create(const Model& model, const PlanOptions& options = {}) {
     ExecutorOptions o;
@@ -61,8 +61,8 @@ class Executor {
   const int8_t* tensor_data(uint32_t tensor_id) const;
 
   const MemoryPlan& plan() const { return plan_; }
-  // The kernel variant layer `layer` runs ("conv_i8__avx2", "add_i8__neon"...; "" for layers
-  // that have only their scalar reference).
+  // The kernel variant layer `layer` runs ("conv_i8__avx2", "softmax_i8__neon", "concat_i8_ref"
+  // under an Isa::scalar cap...; "" for an index past the last layer).
   const char* kernel_name(std::size_t layer) const;
   // Bytes of repacked weights held by this executor.
   std::size_t packed_bytes() const { return packed_ ? packed_->used() : 0; }

@@ -1,0 +1,20 @@
+// concat_i8 at the AVX-512 level (needs BW and VL only; named __avx512vnni, see kernels/variants.h):
+// per input and pixel, its channel run copied (same quantisation) or requantised in 16-lane float32
+// quarters, 64 channels per step, then the overlapping 32- and 16-channel tail blocks, or one
+// byte-masked block when the input has fewer than 16 channels; the loop nest is
+// nn/concat_i8_simd.h.
+//
+// GCC 12 warns (-Wmaybe-uninitialized, and -Wuninitialized at -O1, an error in the debug build) about
+// the unmasked forms of several AVX-512 intrinsics, which merge into _mm512_undefined_*(); the
+// warning is false (every lane is written).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+
+#include "nn/eltwise_kernels.h"
+#include "nn/concat_i8_simd.h"
+
+namespace ef::nn {
+
+void concat_i8__avx512vnni(const ConcatArgs& a) { concat_channels<MaskedBlocks>(a); }
+
+}  // namespace ef::nn

@@ -1,0 +1,20 @@
+// upsample_bilinear_i8 at the AVX-512 level (needs BW and VL only; named __avx512vnni, see
+// kernels/variants.h): per output pixel, 64-channel blocks, then the overlapping 32- and 16-channel
+// tail blocks, or one byte-masked xmm when C < 16 (the 14 channels of the shipped network's last
+// upsampling); arithmetic as the AVX2 variant. Factors above 8 run the reference. The loop nest is
+// nn/upsample_i8_simd.h.
+//
+// GCC 12 warns (-Wmaybe-uninitialized, and -Wuninitialized at -O1, an error in the debug build) about
+// the unmasked forms of several AVX-512 intrinsics, which merge into _mm512_undefined_*(); the
+// warning is false (every lane is written).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+
+#include "nn/eltwise_kernels.h"
+#include "nn/upsample_i8_simd.h"
+
+namespace ef::nn {
+
+void upsample_bilinear_i8__avx512vnni(const UpsampleArgs& a) { upsample_bilinear_rows<MaskedBlocks>(a); }
+
+}  // namespace ef::nn
