@@ -22,6 +22,8 @@ void print_main_help() {
       "  run       map a source: writes trajectory.txt, map.ply (when a map exists) and stats.json\n"
       "  eval      evaluate a trajectory (ate, rpe) or label images (labels)\n"
       "  convert   turn any source into an ElasticFusion .klg log or a TUM RGB-D folder\n"
+      "  segment   run the segmentation network on a source: class-id images per frame\n"
+      "  model     inspect a network (info) or quantise an ONNX one to .efm (import)\n"
       "  version   print the version and the CPU paths this machine can use\n\n"
       "Sources: %s\n",
       kVersion, source_uri_help_text());
@@ -46,7 +48,10 @@ int run_cli(int argc, char** argv) {
   if (cmd == "run") return cmd_run(argc, argv);
   if (cmd == "eval") return cmd_eval(argc, argv);
   if (cmd == "convert") return cmd_convert(argc, argv);
-  std::fprintf(stderr, "edgefusion: unknown command '%s' (expected run, eval, convert, version; see --help)\n",
+  if (cmd == "segment") return cmd_segment(argc, argv);
+  if (cmd == "model") return cmd_model(argc, argv);
+  std::fprintf(stderr,
+               "edgefusion: unknown command '%s' (expected run, eval, convert, segment, model, version; see --help)\n",
                cmd.c_str());
   return 2;
 }

@@ -2,8 +2,10 @@
 # Installs the Debian 12 packages EdgeFusion needs. Run as root (or with sudo).
 #   install-deps.sh            build and run natively (compiler, CMake, Eigen, OpenCV core/imgproc, PNG/JPEG/zlib)
 #   install-deps.sh test       + test tools (GoogleTest, clang/libFuzzer, python3-open3d for the PLY check,
-#                              XNNPACK, pthreadpool, cpuinfo for bench_nn_conv's comparison)
+#                              XNNPACK, pthreadpool, cpuinfo for bench_nn_conv's comparison, PyTorch, ONNX
+#                              and OpenCV for Python for the tests of models/)
 #   install-deps.sh cross      + aarch64 cross compiler, arm64 multiarch libraries, qemu-user
+#   install-deps.sh models     base + what models/train.sh needs (PyTorch, ONNX, OpenCV for Python)
 # Idempotent: packages already present are skipped quickly by apt.
 set -euo pipefail
 mode="${1:-base}"
@@ -15,7 +17,9 @@ base_pkgs=(build-essential cmake ninja-build pkg-config git
            libeigen3-dev libopencv-core-dev libopencv-imgproc-dev
            libpng-dev libjpeg62-turbo-dev zlib1g-dev)
 test_pkgs=(libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev python3 python3-numpy python3-open3d
-           libxnnpack-dev libpthreadpool-dev libcpuinfo-dev)
+           libxnnpack-dev libpthreadpool-dev libcpuinfo-dev
+           python3-torch python3-onnx python3-opencv)
+models_pkgs=(python3 python3-numpy python3-torch python3-onnx python3-opencv)
 cross_pkgs=(g++-aarch64-linux-gnu qemu-user
             libpng-dev:arm64 libjpeg62-turbo-dev:arm64 zlib1g-dev:arm64
             libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64 libgtest-dev:arm64)
@@ -24,9 +28,10 @@ pkgs=("${base_pkgs[@]}")
 case "$mode" in
   base) ;;
   test) pkgs+=("${test_pkgs[@]}") ;;
+  models) pkgs+=("${models_pkgs[@]}") ;;
   cross) pkgs+=("${test_pkgs[@]}" "${cross_pkgs[@]}")
          if ! dpkg --print-foreign-architectures | grep -qx arm64; then $SUDO dpkg --add-architecture arm64; fi ;;
-  *) echo "install-deps.sh: unknown mode '$mode' (expected base, test or cross)" >&2; exit 2 ;;
+  *) echo "install-deps.sh: unknown mode '$mode' (expected base, test, cross or models)" >&2; exit 2 ;;
 esac
 
 missing=()
