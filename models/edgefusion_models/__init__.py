@@ -1,0 +1,1 @@
+"""EdgeFusion segmentation network: definition, training data, float -> int8 export (docs/model_format.md)."""
