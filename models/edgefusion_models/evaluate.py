@@ -49,23 +49,26 @@ def main():
     ap.add_argument("--model", required=True)
     ap.add_argument("--checkpoint", required=True)
     ap.add_argument("--data-dir", default="/tmp/edgefusion-data")
+    ap.add_argument("--also-model", default="", help="a second .efm (e.g. the ONNX import) in its own column")
     ap.add_argument("--json", default="", help="write the figures here")
     args = ap.parse_args()
 
     root = os.path.join(args.data_dir, "test320")
-    cm_int8 = np.zeros((NUM_CLASSES, NUM_CLASSES), np.int64)
+    models = [args.model] + ([args.also_model] if args.also_model else [])
+    cms = [np.zeros((NUM_CLASSES, NUM_CLASSES), np.int64) for _ in models]
     gts = []
     for seed in dataset.SPLIT_SEEDS["test"]:
         folder = render_320(args.edgefusion, seed, root)
-        out = os.path.join(root, "segment", f"seed{seed:05d}")
-        subprocess.run([args.edgefusion, "segment", "--model", args.model, "--source", "tum:" + folder,
-                        "--out", out], check=True, stdout=subprocess.DEVNULL)
         gt = read_labels(os.path.join(folder, "labels"))
-        est = read_labels(os.path.join(out, "labels"))
-        if gt.shape != est.shape:
-            raise RuntimeError(f"seed {seed}: ground truth {gt.shape} and estimate {est.shape} differ")
-        cm_int8 += confusion(est, gt)
         gts.append(gt)
+        for k, model in enumerate(models):
+            out = os.path.join(root, f"segment{k}", f"seed{seed:05d}")
+            subprocess.run([args.edgefusion, "segment", "--model", model, "--source", "tum:" + folder,
+                            "--out", out, "--quiet"], check=True, stdout=subprocess.DEVNULL)
+            est = read_labels(os.path.join(out, "labels"))
+            if gt.shape != est.shape:
+                raise RuntimeError(f"seed {seed}: ground truth {gt.shape} and estimate {est.shape} differ")
+            cms[k] += confusion(est, gt)
     gt_all = np.concatenate(gts)
 
     rgb, depth, _ = dataset.build_split(args.edgefusion, "test", args.data_dir)
@@ -78,22 +81,26 @@ def main():
             preds.append(net(to_input(rgb[i:i + 32], depth[i:i + 32])).argmax(1).numpy().astype(np.uint8))
     cm_float = confusion(upsample_nearest_x2(np.concatenate(preds)), gt_all)
 
-    mi, mf = metrics(cm_int8), metrics(cm_float)
+    mf = metrics(cm_float)
+    mis = [metrics(cm) for cm in cms]
     print(f"test: {gt_all.shape[0]} frames at {gt_all.shape[2]}x{gt_all.shape[1]}, "
           f"{len(dataset.SPLIT_SEEDS['test'])} sequences (seeds {min(dataset.SPLIT_SEEDS['test'])}.."
           f"{max(dataset.SPLIT_SEEDS['test'])})")
-    print("| class | pixels | float | int8 (C++ runtime) |\n|---|---:|---:|---:|")
-    rows = cm_int8.sum(1)
+    heads = ["float (PyTorch)", "int8 (C++ runtime)"] + (["int8, ONNX import (C++ runtime)"] if args.also_model else [])
+    print("| class | pixels | " + " | ".join(heads) + " |\n|---|---:|" + "---:|" * len(heads))
+    rows = cms[0].sum(1)
     for c in range(1, NUM_CLASSES):
         if rows[c] == 0:
-            print(f"| {CLASS_NAMES[c]} | 0 | - | - |")
+            print(f"| {CLASS_NAMES[c]} | 0 |" + " - |" * len(heads))
             continue
-        print(f"| {CLASS_NAMES[c]} | {rows[c]} | {100 * mf['per_class'][c]:.1f} | {100 * mi['per_class'][c]:.1f} |")
+        vals = [mf] + mis
+        print(f"| {CLASS_NAMES[c]} | {rows[c]} | " + " | ".join(f"{100 * m['per_class'][c]:.1f}" for m in vals) + " |")
     for key, name in (("class_average", "class average"), ("pixel_average", "pixel average"), ("miou", "mIoU")):
-        print(f"| **{name}** | | {100 * mf[key]:.1f} | {100 * mi[key]:.1f} |")
+        print(f"| **{name}** | | " + " | ".join(f"{100 * m[key]:.1f}" for m in [mf] + mis) + " |")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"int8": mi, "float": mf, "frames": int(gt_all.shape[0])}, f, indent=1)
+            json.dump({"float": mf, "int8": mis[0], "int8_also": mis[1] if args.also_model else None,
+                       "frames": int(gt_all.shape[0])}, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -89,7 +89,7 @@ def main():
     ap.add_argument("--edgefusion", required=True, help="path of the edgefusion binary (renders the data)")
     ap.add_argument("--data-dir", default="/tmp/edgefusion-data", help="rendered sequences and npz caches")
     ap.add_argument("--out", default="models/checkpoints/edgesegnet.pt", help="best checkpoint")
-    ap.add_argument("--epochs", type=int, default=12)
+    ap.add_argument("--epochs", type=int, default=14)
     ap.add_argument("--batch", type=int, default=16)
     ap.add_argument("--lr", type=float, default=3e-3, help="peak learning rate (AdamW, cosine decay)")
     ap.add_argument("--weight-decay", type=float, default=1e-4)
