@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_timing.h"
 #include "firmware_app/model_paths.h"
 #include "kernels/variants.h"
 #include "nn/executor.h"
@@ -37,41 +38,8 @@ namespace {
 
 using ef::kernels::Isa;
 
-// Seconds of CPU time this thread has used: timings exclude the time other processes hold the core.
-double thread_cpu_seconds() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
-}
-
-struct Timing {
-  double median = 0;  // seconds per call
-  double iqr = 0;     // interquartile range / median
-};
-
-// Seconds per call of `fn`: `reps` runs of one batch of calls each, the batch sized (by doubling,
-// which is also the warm-up) to take at least `min_ms`.
-template <class F>
-Timing time_calls(F&& fn, int reps, double min_ms) {
-  long calls = 1;
-  for (;;) {
-    const double t0 = thread_cpu_seconds();
-    for (long i = 0; i < calls; ++i) fn();
-    if ((thread_cpu_seconds() - t0) * 1e3 >= min_ms || calls >= (1L << 30)) break;
-    calls *= 2;
-  }
-  std::vector<double> per_call;
-  for (int r = 0; r < reps; ++r) {
-    const double t0 = thread_cpu_seconds();
-    for (long i = 0; i < calls; ++i) fn();
-    per_call.push_back((thread_cpu_seconds() - t0) / double(calls));
-  }
-  std::sort(per_call.begin(), per_call.end());
-  Timing t;
-  t.median = per_call[per_call.size() / 2];
-  t.iqr = (per_call[per_call.size() * 3 / 4] - per_call[per_call.size() / 4]) / t.median;
-  return t;
-}
+using ef::bench::Timing;
+using ef::bench::time_calls;
 
 // The kernel variant of every layer, joined: two caps that give the same string run the same code.
 std::string kernel_signature(const ef::nn::Executor& ex, std::size_t layers) {

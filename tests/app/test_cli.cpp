@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "app/cli_test_util.h"
 #include "firmware_app/cli.h"
 #include "eval/trajectory_eval.h"
 #include "io/ply_writer.h"
@@ -15,24 +16,6 @@
 
 namespace ef::app {
 namespace {
-
-struct CliResult {
-  int code;
-  std::string out;
-  std::string err;
-};
-
-CliResult cli(std::vector<std::string> args) {
-  args.insert(args.begin(), "edgefusion");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  testing::internal::CaptureStdout();
-  testing::internal::CaptureStderr();
-  const int code = run_cli(static_cast<int>(args.size()), argv.data());
-  CliResult r{code, testing::internal::GetCapturedStdout(), testing::internal::GetCapturedStderr()};
-  return r;
-}
 
 std::string read_file(const std::filesystem::path& p) {
   std::ifstream in(p);

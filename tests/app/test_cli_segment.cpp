@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "core/classes.h"
+#include "app/cli_test_util.h"
 #include "firmware_app/cli.h"
 #include "firmware_app/npy_writer.h"
 #include "io/image_codec.h"
@@ -26,24 +27,6 @@ namespace ef::app {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct CliResult {
-  int code;
-  std::string out;
-  std::string err;
-};
-
-CliResult cli(std::vector<std::string> args) {
-  args.insert(args.begin(), "edgefusion");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  testing::internal::CaptureStdout();
-  testing::internal::CaptureStderr();
-  const int code = run_cli(static_cast<int>(args.size()), argv.data());
-  CliResult r{code, testing::internal::GetCapturedStdout(), testing::internal::GetCapturedStderr()};
-  return r;
-}
 
 // Value of a "key value" line; NaN when there is none.
 double metric(const std::string& out, const std::string& key) {

@@ -1,0 +1,31 @@
+// Runs the `edgefusion` command line in-process (run_cli) and captures what it prints.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "firmware_app/cli.h"
+
+namespace ef::app {
+
+struct CliResult {
+  int code;         // run_cli's return value (the process exit code)
+  std::string out;  // stdout
+  std::string err;  // stderr
+};
+
+// args: everything after the program name, e.g. {"eval", "ate", "gt.txt", "est.txt"}.
+inline CliResult cli(std::vector<std::string> args) {
+  args.insert(args.begin(), "edgefusion");
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const int code = run_cli(static_cast<int>(args.size()), argv.data());
+  return CliResult{code, testing::internal::GetCapturedStdout(), testing::internal::GetCapturedStderr()};
+}
+
+}  // namespace ef::app
