@@ -11,6 +11,7 @@ struct Sse41 {
   using R = __m128i;
   static constexpr int kLanes = 4;
   static constexpr int kRegisters = 16;
+  static constexpr int kWholeWindowSpareRegisters = 0;
   static void widen8(uint64_t bytes, int16_t* dst) {
     _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), _mm_cvtepi8_epi16(_mm_cvtsi64_si128(static_cast<long long>(bytes))));
   }
@@ -22,8 +23,15 @@ struct Sse41 {
   static R load_i16(const int16_t* w) { return _mm_load_si128(reinterpret_cast<const __m128i*>(w)); }
   static R madd_add(R acc, R x, R w) { return _mm_add_epi32(acc, _mm_madd_epi16(x, w)); }
   static R load_i32(const int32_t* p) { return _mm_load_si128(reinterpret_cast<const __m128i*>(p)); }
+  // The NV panels of one pixel, one after another; `valid` (>= 1) channels from dst on.
+  template <int NV>
+  static void store_requantized(const R (&acc)[NV], const float* mult, int32_t zp, int32_t lo, int32_t hi, int8_t* dst,
+                                int valid) {
+    for (int v = 0; v < NV && 4 * v < valid; ++v)
+      store_panel(acc[v], mult + 4 * v, zp, lo, hi, dst + 4 * v, valid - 4 * v < 4 ? valid - 4 * v : 4);
+  }
   // nn/requantize.h on 4 lanes; `valid` (1..4) channels are stored.
-  static void store_requantized(R acc, const float* mult, int32_t zp, int32_t lo, int32_t hi, int8_t* dst, int valid) {
+  static void store_panel(R acc, const float* mult, int32_t zp, int32_t lo, int32_t hi, int8_t* dst, int valid) {
     __m128 f = _mm_mul_ps(_mm_cvtepi32_ps(acc), _mm_load_ps(mult));
     f = _mm_min_ps(_mm_max_ps(f, _mm_set1_ps(float(lo - zp))), _mm_set1_ps(float(hi - zp)));
     const __m128i q = _mm_add_epi32(_mm_cvtps_epi32(f), _mm_set1_epi32(zp));

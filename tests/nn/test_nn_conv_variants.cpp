@@ -146,6 +146,10 @@ TEST(NnConvVariants, WideRowsAndPointwise) {
     expect_variants_match(make_layer(Case{2, w, 24, 48, 1, 1, 1, 1, 0, 0, 0, 0}, rng));
     expect_variants_match(make_layer(Case{3, w, 32, 32, 3, 3, 1, 1, 1, 1, 1, 1}, rng));
     expect_variants_match(make_layer(Case{4, w, 4, 24, 3, 3, 2, 1, 1, 1, 1, 1}, rng));
+    // Channels that do not fill the panels (the PMADDWD tiles store full panels into the next
+    // pixels of the row, which are stored later; never past the row).
+    expect_variants_match(make_layer(Case{3, w, 32, 14, 1, 1, 1, 1, 0, 0, 0, 0}, rng));
+    expect_variants_match(make_layer(Case{2, w, 8, 3, 1, 1, 1, 1, 0, 0, 0, 0}, rng));
     if (HasFatalFailure()) return;
   }
 }
@@ -166,8 +170,13 @@ TEST(NnConvVariants, WholeWindowPackingBoundary) {
 TEST(NnConvVariants, RowRangesWriteOnlyTheirRows) {
   std::mt19937 rng(404);
   const Layer l = make_layer(Case{9, 13, 16, 20, 3, 3, 1, 1, 1, 1, 1, 1}, rng);
+  // 1x1 with 14 and 3 channels: partial panels, whose stores may run into the next pixel.
+  const Layer pw14 = make_layer(Case{6, 11, 32, 14, 1, 1, 1, 1, 0, 0, 0, 0}, rng);
+  const Layer pw3 = make_layer(Case{5, 3, 8, 3, 1, 1, 1, 1, 0, 0, 0, 0}, rng);
   for (auto [b, e] : {std::pair{0, 1}, {3, 4}, {2, 7}, {8, 9}, {0, 9}, {5, 5}}) {
     expect_variants_match(l, b, e);
+    expect_variants_match(pw14, b < 6 ? b : 5, e < 6 ? e : 6);
+    expect_variants_match(pw3, b < 5 ? b : 4, e < 5 ? e : 5);
     if (HasFatalFailure()) return;
   }
 }
