@@ -1,0 +1,83 @@
+#include "semantic/label_fusion.h"
+
+#include "semantic/label_store.h"
+
+namespace ef::semantic {
+
+namespace {
+constexpr int kMaxIndexScale = 4;  // slam/index_map.h
+constexpr int kMaxSide = 16384;
+
+// Nearest neighbour with pixel centres (the segmenter's rule): floor((u + 0.5) * to / from).
+int32_t nearest(int64_t u, int64_t from, int64_t to) { return static_cast<int32_t>(((2 * u + 1) * to) / (2 * from)); }
+}  // namespace
+
+Status LabelFusionOptions::validate() const {
+  if (update_every_n_frames < 1)
+    return error(ErrorCode::kInvalidArgument,
+                 "label fusion: update_every_n_frames " + std::to_string(update_every_n_frames) + " must be >= 1");
+  for (int side : {working_width, working_height, cnn_width, cnn_height})
+    if (side < 1 || side > kMaxSide)
+      return error(ErrorCode::kInvalidArgument, "label fusion: image sides must be in 1..16384 (" + describe() + ")");
+  return Status::success();
+}
+
+std::string LabelFusionOptions::describe() const {
+  return "every " + std::to_string(update_every_n_frames) + " frames, working " + std::to_string(working_width) +
+         "x" + std::to_string(working_height) + ", cnn " + std::to_string(cnn_width) + "x" +
+         std::to_string(cnn_height);
+}
+
+Result<LabelFusion> LabelFusion::create(const LabelFusionOptions& options) {
+  EF_RETURN_IF_ERROR(options.validate());
+  LabelFusion f;
+  f.options_ = options;
+  f.observations_.assign(std::size_t(options.cnn_width) * std::size_t(options.cnn_height) * kLabelBytes, 0);
+  f.cnn_x_of_index_x_.assign(std::size_t(options.working_width) * kMaxIndexScale, 0);
+  f.pairs_.resize(std::size_t(options.working_width) * std::size_t(options.working_height) * kMaxIndexScale *
+                  kMaxIndexScale);
+  // Builds the observation cost table now (semantic/label_store.cpp), not in the first fuse().
+  const float warm[kLabelClasses] = {1.0f};
+  uint8_t scratch[kLabelBytes];
+  observation_from_probabilities(warm, scratch);
+  return f;
+}
+
+Result<LabelFusionCounts> LabelFusion::fuse(const slam::IndexMap& index, const ProbabilityView& cnn,
+                                            slam::SurfelPool& pool) {
+  const int scale = index.scale;
+  const int W = options_.working_width, H = options_.working_height;
+  const int Wc = options_.cnn_width, Hc = options_.cnn_height;
+  if (scale < 1 || scale > kMaxIndexScale || index.id.width() != W * scale || index.id.height() != H * scale)
+    return error(ErrorCode::kInvalidArgument, "label fusion: the index map does not match the working size");
+  if (cnn.data == nullptr || cnn.width != Wc || cnn.height != Hc || cnn.classes != kLabelClasses)
+    return error(ErrorCode::kInvalidArgument, "label fusion: the CNN output does not match the options");
+
+  // The CNN's side of equation 1, once per CNN pixel.
+  for (int y = 0; y < Hc; ++y)
+    for (int x = 0; x < Wc; ++x)
+      observation_from_probabilities(cnn.pixel(x, y), observations_.data() + (std::size_t(y) * Wc + x) * kLabelBytes);
+
+  const int index_w = W * scale;
+  for (int x = 0; x < index_w; ++x) cnn_x_of_index_x_[std::size_t(x)] = nearest(x / scale, W, Wc);
+
+  const int64_t pool_size = pool.size();
+  std::size_t n = 0;
+  for (int y = 0; y < H * scale; ++y) {
+    const int32_t* ids = index.id.data() + std::size_t(y) * std::size_t(index_w);
+    const int32_t obs_row = nearest(y / scale, H, Hc) * Wc;
+    for (int x = 0; x < index_w; ++x) {
+      const int32_t id = ids[x];
+      if (id < 0) continue;
+      if (id >= pool_size)
+        return error(ErrorCode::kInvalidArgument, "label fusion: the index map names a surfel outside the pool");
+      pairs_[n++] = kernels::LabelUpdatePair{id, obs_row + cnn_x_of_index_x_[std::size_t(x)]};
+    }
+  }
+  kernels::label_update(pool.labels(), observations_.data(), pairs_.data(), n);
+  LabelFusionCounts counts;
+  counts.surfels_updated = static_cast<int64_t>(n);
+  return counts;
+}
+
+}  // namespace ef::semantic

@@ -1,0 +1,66 @@
+// Bayesian label fusion (SemanticFusion, McCormac et al. ICRA 2017, section IV-C, equation 1): every
+// N-th frame the CNN's class probabilities, upsampled to the working resolution by nearest neighbour,
+// multiply into the distribution of every surfel the index map shows, which is then renormalised.
+// The store and the update are in fixed-point log space (semantic/label_store.h,
+// kernels/label_update.h), so the product is an addition and the renormalisation a subtraction.
+//
+// Memory: create() allocates the observation buffer (one 16-byte vector per CNN output pixel), the
+// column table and the pair list (one per index-map cell at the largest index scale, 4); fuse()
+// allocates nothing. Threads: one LabelFusion per thread.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/result.h"
+#include "kernels/label_update.h"
+#include "semantic/segmenter.h"
+#include "slam/index_map.h"
+#include "slam/surfel_pool.h"
+
+namespace ef::semantic {
+
+struct LabelFusionOptions {
+  // Fuse the CNN's prediction every this many frames (frames, >= 1). Default 10 (the paper's office
+  // sequence result, Table I).
+  int update_every_n_frames = 10;
+  // Working image size (pixels); the index map is `scale` times finer (1..4). Default 320x240.
+  int working_width = 320, working_height = 240;
+  // CNN output size (pixels, ProbabilityView width x height, 14 classes). Default 160x120.
+  int cnn_width = 160, cnn_height = 120;
+
+  Status validate() const;
+  std::string describe() const;
+};
+
+struct LabelFusionCounts {
+  int64_t surfels_updated = 0;  // index-map cells holding a surfel, each one surfel's update
+};
+
+class LabelFusion {
+ public:
+  static Result<LabelFusion> create(const LabelFusionOptions& options = {});
+
+  const LabelFusionOptions& options() const { return options_; }
+  // True on the frames fuse() should run on: frame % update_every_n_frames == 0 (frame >= 0).
+  bool due(int64_t frame) const { return frame % options_.update_every_n_frames == 0; }
+
+  // One Bayesian update of every surfel `index` shows (ids as of the map's rendering) with `cnn`'s
+  // probabilities. Working pixel of index cell (x, y): (x / scale, y / scale); its CNN pixel by the
+  // segmenter's nearest-neighbour rule: cnn_x = floor((u + 0.5) * W' / W), likewise y.
+  // Errors (kInvalidArgument, the pool untouched): index map or CNN sizes that differ from the
+  // options, a class count other than 14, an id outside 0..pool.size()-1.
+  Result<LabelFusionCounts> fuse(const slam::IndexMap& index, const ProbabilityView& cnn, slam::SurfelPool& pool);
+
+  // The observation vectors of the last fuse() (16 bytes per CNN pixel, row-major); for tests.
+  const uint8_t* observations() const { return observations_.data(); }
+
+ private:
+  LabelFusionOptions options_;
+  std::vector<uint8_t> observations_;            // cnn_width * cnn_height * 16
+  std::vector<int32_t> cnn_x_of_index_x_;        // working_width * 4
+  std::vector<kernels::LabelUpdatePair> pairs_;  // working size * 16
+};
+
+}  // namespace ef::semantic

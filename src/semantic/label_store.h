@@ -1,0 +1,67 @@
+// The per-surfel label store (issue 6): a distribution over the 14 classes (0 = unknown, 1..13 the
+// dataset's classes) in SurfelPool::kLabelBytesPerSurfel = 16 bytes per surfel, held in the pool's
+// `labels` column (slam/surfel_pool.h), so it is allocated once with the pool and moves with its
+// surfel on every copy, removal and eviction.
+//
+// Encoding, bytes 0..13: one uint8 "cost" per class, a negative log-probability ratio to the most
+// likely class in fixed point:
+//   cost_c = min(255, round(-ln(p_c / p_max) / step)),  step = kLabelCostStep = 1/16 nat
+// so the most likely class has cost 0, and a class less likely than e^(-255/16) = e^-15.9 ~ 1.2e-7 of
+// the best saturates at 255 (it then means "at most 1.2e-7 of the best").
+// Bytes 14, 15: reserved, always 0 (the update kernel clears them).
+// All-zero = uniform (every class equally likely): what the pool writes for a new surfel.
+//
+// Precision: a stored cost is exact in the lattice of 1/16 nat; encoding a probability ratio rounds
+// the log by at most 1/32 nat, a relative error of at most e^(1/32) - 1 ~ 3.2% on p_c / p_max. The
+// Bayesian update (kernels/label_update.h) is exact on costs except for saturation at 255, so after
+// k fused observations each class's log-ratio is within k/32 nat of the exact product of the
+// (unrounded) CNN probabilities, as long as no cost saturated.
+//
+// Observation vectors (the CNN's side of equation 1) use the same 16-byte layout with the two spare
+// bytes set to 255, so they never win the minimum the update takes over a whole vector.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+namespace ef::semantic {
+
+inline constexpr int kLabelClasses = 14;               // class 0 unknown .. 13
+inline constexpr int kLabelBytes = 16;                 // per surfel and per observation vector
+inline constexpr float kLabelCostStep = 1.0f / 16.0f;  // nats per cost unit
+inline constexpr int kLabelCostMax = 255;              // saturated: at most e^-15.9 of the best
+
+// Costs -> probabilities (kLabelClasses floats, summing to 1): p_c = e^(-cost_c * step) / Z.
+void decode_labels(const uint8_t* costs, float* probs);
+// Probabilities (kLabelClasses non-negative floats, not necessarily normalised) -> 16 bytes with
+// the reserved bytes 0. A zero probability costs 255; all zero (or non-finite max) gives uniform.
+void encode_labels(const float* probs, uint8_t* costs);
+// The class with the lowest cost (the most likely), the lowest id on ties.
+int label_argmax(const uint8_t* costs);
+// The decoded probability of label_argmax(costs).
+float label_argmax_probability(const uint8_t* costs);
+
+// One CNN output pixel -> an observation vector (16 bytes, spare bytes 255):
+// cost_c = min(255, round(-ln(p_c / p_max) / step)) by a 48 KiB table on the float bits of
+// p_c / p_max (label_store.cpp): it can differ from the exact rounding, by one unit, only where
+// -ln(p_c / p_max) / step lies within 0.008 of a half-integer. probs: kLabelClasses floats; a pixel
+// whose largest probability is not a normal finite float gives all-zero costs (an update that changes
+// nothing). The table is built on the first call (thread-safe, no heap).
+void observation_from_probabilities(const float* probs, uint8_t* out);
+
+// The faster exact path for int8 logits q_c with softmax input scale s (logit = s * q): then
+// -ln(p_c / p_max) = s * (q_max - q_c) exactly, so the cost is a table lookup on q_max - q_c (0..255).
+class LogitCostTable {
+ public:
+  // scale: the logits' quantisation scale (nats per int8 step, > 0).
+  explicit LogitCostTable(float scale);
+  // logits: kLabelClasses int8 values -> 16 bytes, spare bytes 255.
+  void observation(const int8_t* logits, uint8_t* out) const;
+  uint8_t cost(int difference) const { return table_[static_cast<std::size_t>(difference)]; }
+
+ private:
+  std::array<uint8_t, 256> table_{};
+};
+
+}  // namespace ef::semantic

@@ -1,0 +1,48 @@
+// LabelFusion::fuse (observation vectors, index-map walk, the update kernel) never touches the heap
+// once the LabelFusion exists.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <vector>
+
+#include "core/alloc_counter.h"
+#include "semantic/label_fusion.h"
+#include "semantic/label_store.h"
+#include "slam/index_map.h"
+#include "slam/surfel_pool.h"
+
+namespace ef {
+namespace {
+
+TEST(LabelFusionZeroAlloc, FuseAllocatesNothing) {
+  ASSERT_TRUE(test::allocation_counting_enabled());
+  semantic::LabelFusionOptions opt;  // 320x240 working, 160x120 CNN
+  auto fusion = semantic::LabelFusion::create(opt);
+  ASSERT_TRUE(fusion.ok());
+  slam::SurfelPoolOptions po;
+  po.capacity = 20000;
+  auto pool = slam::SurfelPool::create(po);
+  ASSERT_TRUE(pool.ok());
+  for (int i = 0; i < 20000; ++i) pool->append(0, 0, 1, 0, 0, -1, 0.01f, 1, 0, 0);
+  slam::IndexMap index;
+  index.scale = 4;
+  index.id.allocate(1280, 960);
+  index.id.fill(-1);
+  std::mt19937 rng(3);
+  for (int i = 0; i < 20000; ++i) index.id(int(rng() % 1280), int(rng() % 960)) = i;
+  std::vector<float> probs(160 * 120 * semantic::kLabelClasses);
+  for (float& p : probs) p = 0.01f + float(rng() % 1000) / 1000.0f;
+  const semantic::ProbabilityView view{probs.data(), 120, 160, semantic::kLabelClasses};
+  ASSERT_TRUE(fusion->fuse(index, view, *pool).ok());  // first call: dispatch is chosen
+
+  test::AllocationCounter count;
+  for (int k = 0; k < 3; ++k) {
+    auto r = fusion->fuse(index, view, *pool);
+    ASSERT_TRUE(r.ok());
+    EXPECT_GT(r->surfels_updated, 0);
+  }
+  EXPECT_EQ(count.thread_allocations(), 0u);
+}
+
+}  // namespace
+}  // namespace ef
