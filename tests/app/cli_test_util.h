@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -26,6 +28,19 @@ inline CliResult cli(std::vector<std::string> args) {
   testing::internal::CaptureStderr();
   const int code = run_cli(static_cast<int>(args.size()), argv.data());
   return CliResult{code, testing::internal::GetCapturedStdout(), testing::internal::GetCapturedStderr()};
+}
+
+// The number of a "key value" line of `out` (what `edgefusion eval` prints); NaN when there is none.
+inline double metric(const std::string& out, const std::string& key) {
+  std::istringstream in(out);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream fields(line);
+    std::string k, rest;
+    double v;
+    if (fields >> k >> v && !(fields >> rest) && k == key) return v;
+  }
+  return NAN;
 }
 
 }  // namespace ef::app

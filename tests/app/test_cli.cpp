@@ -24,19 +24,6 @@ std::string read_file(const std::filesystem::path& p) {
   return ss.str();
 }
 
-// Value of a "key value" line in eval output; NaN when there is none.
-double metric(const std::string& out, const std::string& key) {
-  std::istringstream in(out);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream fields(line);
-    std::string k, rest;
-    double v;
-    if (fields >> k >> v && !(fields >> rest) && k == key) return v;
-  }
-  return NAN;
-}
-
 TEST(Cli, HelpEverywhere) {
   for (std::vector<std::string> a : {std::vector<std::string>{"--help"}, {"run", "--help"}, {"eval", "--help"},
                                      {"eval", "ate", "--help"}, {"eval", "rpe", "--help"},

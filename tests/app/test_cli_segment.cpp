@@ -28,19 +28,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Value of a "key value" line; NaN when there is none.
-double metric(const std::string& out, const std::string& key) {
-  std::istringstream in(out);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream fields(line);
-    std::string k, rest;
-    double v;
-    if (fields >> k >> v && !(fields >> rest) && k == key) return v;
-  }
-  return NAN;
-}
-
 // Sets an environment variable for one scope and restores the previous state.
 class ScopedEnv {
  public:
