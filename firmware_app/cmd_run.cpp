@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include "args.h"
@@ -15,6 +16,7 @@
 #include "io/trajectory_io.h"
 #include "progress.h"
 #include "run_config.h"
+#include "run_semantics.h"
 #include "slam/surfel_slam.h"
 #include "sources/open_source.h"
 #include "synth/synthetic_source.h"
@@ -28,11 +30,20 @@ const std::vector<OptionSpec>& run_options() {
       {"--source", "URI", "frame source; default synthetic: (see below)"},
       {"--config", "FILE",
        "configuration file (key: value lines; keys source, resolution, frames, out, progress, map, "
-       "surfel_capacity, icp_weight, rgb_weight, depth_cutoff_m)"},
+       "surfel_capacity, icp_weight, rgb_weight, depth_cutoff_m, labels, model, label_every, labels_out, "
+       "labels_out_every, crf_every, crf_final, crf_iterations)"},
       {"--resolution", "WxH", "working resolution for tracking and label fusion, pixels; default 320x240"},
       {"--frames", "N", "process at most N frames; default all the source has"},
       {"--out", "DIR", "output folder, created if missing; required here or in the configuration"},
       {"--quiet", "", "no progress line"},
+      {"--model", "FILE", "segmentation model (.efm); default the shipped model"},
+      {"--no-labels", "", "geometry only: no CNN, no label fusion, no class in map.ply"},
+      {"--label-every", "N", "segment and fuse labels every N-th frame; default 10 (the paper's)"},
+      {"--labels-out", "DIR", "write the map's labels rendered into every K-th frame as DIR/<frame>.png"},
+      {"--labels-out-every", "K", "with --labels-out: every K-th frame, counted from the first; default 10"},
+      {"--crf-every", "M", "dense CRF over the whole map every M frames; default 0 = off (paper: 500)"},
+      {"--crf-final", "", "dense CRF over the whole map once at the end, before map.ply is written"},
+      {"--crf-iterations", "N", "mean-field iterations per CRF run, 1..100; default 10"},
   };
   return specs;
 }
@@ -45,10 +56,16 @@ std::string run_help() {
                      "  trajectory.txt  estimated camera-to-world poses (TUM format), one per input frame with\n"
                      "                  the source's timestamps; a frame whose tracking was lost keeps the last\n"
                      "                  good pose and is preceded by a line '# lost <timestamp> <reason>'\n"
-                     "  map.ply         the surfel map (binary PLY: position, normal, colour, radius, confidence)\n"
+                     "  map.ply         the surfel map (binary PLY: position, normal, colour, radius, confidence,\n"
+                     "                  most likely class and its probability)\n"
                      "  stats.json      frames, seconds, fps, per-stage median/p95 ms, counters (lost frames,\n"
                      "                  surfels created / removed / evicted / refused by the full pool)\n"
-                     "The first frame defines the world frame (identity pose).\n\n"
+                     "The first frame defines the world frame (identity pose).\n"
+                     "Labels (SemanticFusion): every N-th frame the CNN's class probabilities multiply into the\n"
+                     "surfels it sees (Bayesian update); the optional dense CRF smooths them over the map.\n"
+                     "--labels-out renders the map's most likely class into the frame's view, falling back to\n"
+                     "the CNN's own prediction where no labelled surfel is seen (class ids 0..13, for\n"
+                     "`edgefusion eval labels`).\n\n"
                      "Sources: " + std::string(source_uri_help()) + "\nBuilt-in rooms: " + rooms,
                      run_options());
 }
@@ -88,13 +105,22 @@ int cmd_run(int argc, char** argv) {
   if (args->has("--config")) {
     if (Status s = apply_config_file(args->get("--config"), config); !s.ok()) return report_error(kCmd, s.error(), 2);
   }
-  for (const char* key : {"source", "resolution", "frames", "out"}) {
-    const std::string opt = std::string("--") + key;
+  for (const char* key : {"source", "resolution", "frames", "out", "model", "label_every", "labels_out",
+                          "labels_out_every", "crf_every", "crf_iterations"}) {
+    std::string opt = std::string("--") + key;
+    for (char& ch : opt)
+      if (ch == '_') ch = '-';
     if (!args->has(opt)) continue;
     if (Status s = apply_config_value(key, args->get(opt), "option " + opt, config); !s.ok())
       return report_error(kCmd, s.error(), 2);
   }
   if (args->has("--quiet")) config.progress = false;
+  if (args->has("--no-labels")) config.labels = false;
+  if (args->has("--crf-final")) config.crf_final = true;
+  if (!config.labels && (!config.labels_out.empty() || config.crf_every > 0 || config.crf_final))
+    return report_error(kCmd, error(ErrorCode::kInvalidArgument,
+                                    "--labels-out and the CRF need labels: drop --no-labels (or 'labels: false')"),
+                        2);
   if (config.out_dir.empty())
     return report_error(kCmd, error(ErrorCode::kInvalidArgument, "missing --out DIR (or 'out:' in --config)"), 2);
 
@@ -125,6 +151,12 @@ int cmd_run(int argc, char** argv) {
   slam::SurfelSlam& slam = *slam_or;
 
   StageStats stats;
+  std::unique_ptr<RunSemantics> semantics;
+  if (config.labels) {
+    auto sem = RunSemantics::create(config, working_k, stats);
+    if (!sem.ok()) return report_error(kCmd, sem.error(), 2);
+    semantics = std::move(*sem);
+  }
   const int st_source = stats.add_stage("source");
   const int st_resample = stats.add_stage("resample");
   const SlamStages st{stats.add_stage("preprocess"), stats.add_stage("track"), stats.add_stage("fuse"),
@@ -145,6 +177,11 @@ int cmd_run(int argc, char** argv) {
                info.frame_count >= 0 ? std::to_string(info.frame_count).c_str() : "unknown", config.width,
                config.height, working_k.fx, static_cast<long long>(config.surfel_capacity),
                static_cast<double>(slam.pool_bytes()) / 1e6);
+  if (semantics != nullptr)
+    std::fprintf(stderr, "%s: %s (%.1f MB)\n", kCmd, semantics->describe().c_str(),
+                 static_cast<double>(semantics->bytes()) / 1e6);
+  else
+    std::fprintf(stderr, "%s: labels off (geometry only)\n", kCmd);
 
   Progress progress("run", expected, config.progress);
   const auto start = std::chrono::steady_clock::now();
@@ -179,6 +216,13 @@ int cmd_run(int argc, char** argv) {
     if (result.fused) stats.record_ms(st.fuse, result.timings.fuse_ms);
     stats.record_ms(st.predict, result.timings.predict_ms);
     stats.record_ms(st_slam, result.timings.total_ms);
+    if (semantics != nullptr) {
+      if (Status s = semantics->on_frame(frames, working, result, slam); !s.ok()) {
+        report_error(kCmd, s.error(), 1);
+        exit_code = 1;
+        break;
+      }
+    }
     {
       ScopedStageTimer t(stats, st_output);
       Status s;
@@ -220,9 +264,17 @@ int cmd_run(int argc, char** argv) {
   } else {
     wrote_trajectory = true;
   }
+  if (semantics != nullptr) {
+    if (Status s = semantics->finish(slam); !s.ok()) {
+      report_error(kCmd, s.error(), 1);
+      exit_code = 1;
+    }
+  }
   if (config.write_map) {
     const std::string comment = "edgefusion map of " + config.source + ", " + std::to_string(frames) + " frames";
-    if (Status s = write_surfel_ply(map_path, slam::surfel_cloud_view(slam.pool()), comment); !s.ok()) {
+    SurfelCloudView cloud = slam::surfel_cloud_view(slam.pool());
+    if (semantics != nullptr) semantics->add_label_columns(slam.pool(), cloud);
+    if (Status s = write_surfel_ply(map_path, cloud, comment); !s.ok()) {
       report_error(kCmd, s.error(), 1);
       exit_code = 1;
     } else {

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 #include "args.h"
 
@@ -36,7 +37,17 @@ std::string RunConfig::describe() const {
     << "icp_weight: " << icp_weight << "          # tracking: weight of the ICP term, >= 0; default 10\n"
     << "rgb_weight: " << rgb_weight << "           # tracking: weight of the photometric term, >= 0; default 0.25\n"
     << "depth_cutoff_m: " << depth_cutoff_m << "       # metres; depths beyond are ignored; default 8\n"
-    << "map: " << (write_map ? "true" : "false") << "           # write map.ply; default true\n";
+    << "map: " << (write_map ? "true" : "false") << "           # write map.ply; default true\n"
+    << "labels: " << (labels ? "true" : "false") << "        # CNN segmentation + label fusion; default true\n"
+    << "model: " << model << "          # .efm segmentation model; default the shipped model\n"
+    << "label_every: " << label_every << "      # frames between CNN label updates, >= 1; default 10\n"
+    << "labels_out: " << labels_out << "     # folder for rendered class-id PNGs; default none\n"
+    << "labels_out_every: " << labels_out_every << " # write every K-th frame's rendering, >= 1; default 10\n"
+    << "crf_every: " << crf_every << "         # frames between dense CRF runs, 0 = off; default 0\n"
+    << "crf_final: " << (crf_final ? "true" : "false") << "     # dense CRF once at the end; default false\n"
+    << "crf_iterations: " << crf_iterations << "   # mean-field iterations per CRF run, 1..100; default 10\n"
+    << "label_visibility: " << (label_visibility ? "true" : "false")
+    << " # labels only for surfels at the measured depth; default true\n";
   return o.str();
 }
 
@@ -63,12 +74,32 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
   } else if (key == "out") {
     if (value.empty()) return bad("is empty (expected a folder)");
     config.out_dir = value;
-  } else if (key == "progress" || key == "map") {
+  } else if (key == "progress" || key == "map" || key == "labels" || key == "crf_final" ||
+             key == "label_visibility") {
     bool v = false;
     if (value == "true" || value == "yes" || value == "on") v = true;
     else if (value == "false" || value == "no" || value == "off") v = false;
     else return bad("is not true or false");
-    (key == "map" ? config.write_map : config.progress) = v;
+    if (key == "map") config.write_map = v;
+    else if (key == "progress") config.progress = v;
+    else if (key == "labels") config.labels = v;
+    else if (key == "label_visibility") config.label_visibility = v;
+    else config.crf_final = v;
+  } else if (key == "model" || key == "labels_out") {
+    if (value.empty()) return bad(key == "model" ? "is empty (expected a .efm file)" : "is empty (expected a folder)");
+    (key == "model" ? config.model : config.labels_out) = value;
+  } else if (key == "label_every" || key == "labels_out_every" || key == "crf_every" || key == "crf_iterations") {
+    errno = 0;
+    char* end = nullptr;
+    const long long v = std::strtoll(value.c_str(), &end, 10);
+    const long long lo = key == "crf_every" ? 0 : 1;
+    const long long hi = key == "crf_iterations" ? 100 : 1'000'000;
+    if (value.empty() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+      return bad("is not an integer in " + std::to_string(lo) + ".." + std::to_string(hi));
+    if (key == "label_every") config.label_every = static_cast<int>(v);
+    else if (key == "labels_out_every") config.labels_out_every = static_cast<int>(v);
+    else if (key == "crf_every") config.crf_every = static_cast<int>(v);
+    else config.crf_iterations = static_cast<int>(v);
   } else if (key == "surfel_capacity") {
     errno = 0;
     char* end = nullptr;
@@ -90,7 +121,8 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     return error(ErrorCode::kInvalidArgument,
                  where + ": unknown key '" + key +
                      "' (known: source, resolution, frames, out, progress, map, surfel_capacity, icp_weight, "
-                     "rgb_weight, depth_cutoff_m)");
+                     "rgb_weight, depth_cutoff_m, labels, model, label_every, labels_out, labels_out_every, "
+                     "crf_every, crf_final, crf_iterations, label_visibility)");
   }
   return Status::success();
 }

@@ -26,6 +26,18 @@ struct RunConfig {
   double rgb_weight = 0.25;             // tracking: relative weight of the photometric term (>= 0)
   float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres
   bool write_map = true;                // write map.ply at the end of the run
+  // Semantics (SemanticFusion): the CNN every N-th frame, Bayesian label fusion into the surfels,
+  // an optional dense CRF, rendered label images.
+  bool labels = true;                   // segment and fuse labels; false = geometry only
+  std::string model;                    // .efm segmentation model; empty = the shipped model
+  int label_every = 10;                 // CNN + Bayesian update every N frames (>= 1; paper: 10)
+  std::string labels_out;               // folder for rendered class-id PNGs; empty = none
+  int labels_out_every = 10;            // write the rendering of every K-th frame (>= 1)
+  int crf_every = 0;                    // dense CRF over the map every M frames; 0 = off (paper: 500)
+  bool crf_final = false;               // one dense CRF over the map at the end of the run
+  int crf_iterations = 10;              // mean-field iterations per CRF run (1..100; paper: 10)
+  bool label_visibility = true;         // fuse / render only surfels whose depth matches the measured
+                                        // depth (semantic/visibility.h); false = every index-map surfel
 
   // Multi-line "key: value  # unit, default" listing, as a configuration file would hold it.
   std::string describe() const;

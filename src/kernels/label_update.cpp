@@ -20,4 +20,17 @@ void label_update(uint8_t* store, const uint8_t* obs, const LabelUpdatePair* pai
   fn(store, obs, pairs, n);
 }
 
+void label_merge(uint8_t* keep, const uint8_t* other) {
+  unsigned t[kLabelUpdateClasses];
+  unsigned m = 255;
+  for (int c = 0; c < kLabelUpdateClasses; ++c) {
+    const unsigned sum = unsigned(keep[c]) + unsigned(other[c]);
+    t[c] = sum > 255 ? 255 : sum;
+    if (t[c] < m) m = t[c];
+  }
+  for (int c = 0; c < kLabelUpdateClasses; ++c) keep[c] = static_cast<uint8_t>(t[c] - m);
+  keep[14] = 0;
+  keep[15] = 0;
+}
+
 }  // namespace ef::kernels

@@ -31,4 +31,10 @@ void label_update(uint8_t* store, const uint8_t* obs, const LabelUpdatePair* pai
 // Name of the variant label_update() dispatches to on this CPU.
 const char* label_update_selected();
 
+// Merges one stored distribution into another, for two surfels found to be the same surface: the
+// product of the two (each holds independent evidence), renormalised, in place in `keep`:
+//   keep_c = min(255, keep_c + other_c) - min over c of that   (classes 0..13; bytes 14, 15 = 0)
+// Both arguments are 16-byte store vectors (reserved bytes 0). Scalar: merges are a few per frame.
+void label_merge(uint8_t* keep, const uint8_t* other);
+
 }  // namespace ef::kernels

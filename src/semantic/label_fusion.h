@@ -13,9 +13,11 @@
 #include <string>
 #include <vector>
 
+#include "core/image.h"
 #include "core/result.h"
 #include "kernels/label_update.h"
 #include "semantic/segmenter.h"
+#include "semantic/visibility.h"
 #include "slam/index_map.h"
 #include "slam/surfel_pool.h"
 
@@ -29,13 +31,19 @@ struct LabelFusionOptions {
   int working_width = 320, working_height = 240;
   // CNN output size (pixels, ProbabilityView width x height, 14 classes). Default 160x120.
   int cnn_width = 160, cnn_height = 120;
+  // Visibility (semantic/visibility.h): with a depth image, a surfel of the index map is updated only
+  // where its depth agrees with the measured depth of its working pixel; pixels without depth update
+  // nothing. Default 3 cm + 3% of the depth.
+  DepthGate visibility;
 
   Status validate() const;
   std::string describe() const;
 };
 
 struct LabelFusionCounts {
-  int64_t surfels_updated = 0;  // index-map cells holding a surfel, each one surfel's update
+  int64_t surfels_updated = 0;   // index-map cells holding a visible surfel, each one surfel's update
+  int64_t hidden_skipped = 0;    // cells whose surfel failed the depth test (occluded or off the surface)
+  int64_t no_depth_skipped = 0;  // cells of working pixels without a measured depth
 };
 
 class LabelFusion {
@@ -49,9 +57,12 @@ class LabelFusion {
   // One Bayesian update of every surfel `index` shows (ids as of the map's rendering) with `cnn`'s
   // probabilities. Working pixel of index cell (x, y): (x / scale, y / scale); its CNN pixel by the
   // segmenter's nearest-neighbour rule: cnn_x = floor((u + 0.5) * W' / W), likewise y.
-  // Errors (kInvalidArgument, the pool untouched): index map or CNN sizes that differ from the
+  // depth: the frame's measured depth at the working size (metres, 0 = none) for the visibility
+  // test, or empty to update every surfel the index map holds.
+  // Errors (kInvalidArgument, the pool untouched): index map, CNN or depth sizes that differ from the
   // options, a class count other than 14, an id outside 0..pool.size()-1.
-  Result<LabelFusionCounts> fuse(const slam::IndexMap& index, const ProbabilityView& cnn, slam::SurfelPool& pool);
+  Result<LabelFusionCounts> fuse(const slam::IndexMap& index, const ProbabilityView& cnn, slam::SurfelPool& pool,
+                                 ImageView<const float> depth = {});
 
   // The observation vectors of the last fuse() (16 bytes per CNN pixel, row-major); for tests.
   const uint8_t* observations() const { return observations_.data(); }

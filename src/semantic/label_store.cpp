@@ -49,6 +49,14 @@ float label_argmax_probability(const uint8_t* costs) {
   return probs[label_argmax(costs)];
 }
 
+void label_summary(const uint8_t* stores, std::size_t n, uint8_t* class_id, float* class_prob) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const uint8_t* costs = stores + i * kLabelBytes;
+    class_id[i] = static_cast<uint8_t>(label_argmax(costs));
+    class_prob[i] = label_argmax_probability(costs);
+  }
+}
+
 namespace {
 // Observation costs by table: for r = p_c / p_max in (0, 1], the cost depends on r's float exponent
 // (2^-23 .. 2^0: below 2^-23 < e^(-254.5/16) every cost is 255) and the top 11 bits of its mantissa.

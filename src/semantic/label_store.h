@@ -41,6 +41,10 @@ void encode_labels(const float* probs, uint8_t* costs);
 int label_argmax(const uint8_t* costs);
 // The decoded probability of label_argmax(costs).
 float label_argmax_probability(const uint8_t* costs);
+// label_argmax and label_argmax_probability of `n` consecutive 16-byte stores (a pool's label
+// column) into class_id[n] and class_prob[n]: the map.ply class columns. A never-updated (uniform)
+// surfel gives class 0 with probability 1/14.
+void label_summary(const uint8_t* stores, std::size_t n, uint8_t* class_id, float* class_prob);
 
 // One CNN output pixel -> an observation vector (16 bytes, spare bytes 255):
 // cost_c = min(255, round(-ln(p_c / p_max) / step)) by a 48 KiB table on the float bits of

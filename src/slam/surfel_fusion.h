@@ -66,6 +66,7 @@
 #include "core/intrinsics.h"
 #include "core/result.h"
 #include "core/se3.h"
+#include "kernels/label_update.h"
 #include "slam/index_map.h"
 #include "slam/surfel_pool.h"
 
@@ -269,10 +270,13 @@ inline Sample sample_of(const SurfelPool& pool, int64_t id) {
 
 // Merges surfel `other` into `keep`: confidence-weighted average, confidences summed (both were
 // evidence of the same surface), the earlier init_time and the later last_seen. `other` is left
-// for the caller to remove. Labels stay those of `keep` (issue 6 may fuse them).
+// for the caller to remove. Labels: the product of the two distributions (kernels::label_merge),
+// since both surfels gathered independent evidence of the same surface.
 inline void merge_into(SurfelPool& pool, int64_t keep, int64_t other) {
   const Sample s = sample_of(pool, other);
   average_into(pool, keep, s);
+  kernels::label_merge(pool.labels() + keep * SurfelPool::kLabelBytesPerSurfel,
+                       pool.labels() + other * SurfelPool::kLabelBytesPerSurfel);
   pool.confidence()[keep] += s.weight;
   if (pool.init_time()[other] < pool.init_time()[keep]) pool.init_time()[keep] = pool.init_time()[other];
   if (pool.last_seen()[other] > pool.last_seen()[keep]) pool.last_seen()[keep] = pool.last_seen()[other];

@@ -77,6 +77,10 @@ class SurfelSlam {
   Status process(const Frame& frame, SlamFrameResult* result);
 
   const SurfelPool& pool() const { return pool_; }
+  // The pool for the semantic layer (semantic/label_fusion.h, the dense CRF), which writes only the
+  // label column between process() calls. Geometry must not be changed outside process(): the
+  // predictor's index map refers to the pool as process() left it.
+  SurfelPool& pool_for_labels() { return pool_; }
   const SE3& pose() const { return T_world_last_; }  // last good pose
   int64_t frames() const { return frames_; }
   int64_t lost_frames() const { return lost_frames_; }
@@ -110,7 +114,8 @@ class SurfelSlam {
   int64_t lost_frames_ = 0;
 };
 
-// A view of the pool for io/ply_writer.h (colours from the packed column; no labels yet).
+// A view of the pool for io/ply_writer.h (colours from the packed column). The class columns are
+// left empty (written as zeros); the caller fills them from the label store (semantic/label_store.h).
 SurfelCloudView surfel_cloud_view(const SurfelPool& pool);
 
 }  // namespace ef::slam

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -41,6 +43,14 @@ inline double metric(const std::string& out, const std::string& key) {
     if (fields >> k >> v && !(fields >> rest) && k == key) return v;
   }
   return NAN;
+}
+
+// The whole text of a file ("" when it cannot be read).
+inline std::string read_file(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 }  // namespace ef::app

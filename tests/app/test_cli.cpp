@@ -17,11 +17,14 @@
 namespace ef::app {
 namespace {
 
-std::string read_file(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+// `edgefusion run` arguments for the tests of geometry and outputs. Under qemu-user the labels are
+// turned off: the shipped network's forward pass is far slower there than the mapping itself, and
+// the semantic path has its own tests (test_cli_semantic.cpp) with a tiny network.
+std::vector<std::string> run_args(std::vector<std::string> args) {
+#ifdef EF_TESTS_UNDER_EMULATOR
+  args.push_back("--no-labels");
+#endif
+  return args;
 }
 
 TEST(Cli, HelpEverywhere) {
@@ -95,7 +98,7 @@ TEST(Cli, RunSyntheticWritesTrajectoryAndStats) {
   const auto dir = test::scratch_dir("cli-run");
   const auto cfg = dir / "run.yaml";
   std::ofstream(cfg) << "source: synthetic:?frames=6\nresolution: 160x120\n";
-  const auto r = cli({"run", "--config", cfg.string(), "--frames", "4", "--out", (dir / "out").string(), "--quiet"});
+  const auto r = cli(run_args({"run", "--config", cfg.string(), "--frames", "4", "--out", (dir / "out").string(), "--quiet"}));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find((dir / "out" / "trajectory.txt").string()), std::string::npos) << r.out;
 
@@ -122,7 +125,7 @@ TEST(Cli, RunSyntheticWritesTrajectoryAndStats) {
 TEST(Cli, SevenScenesTrackedTrajectoryIsCloseToTheReferencePoses) {
   EF_SKIP_WITHOUT_DATASET(data, "7scenes-redkitchen");
   const auto dir = test::scratch_dir("cli-7scenes");
-  const auto r = cli({"run", "--source", "7scenes:" + data.string(), "--frames", "30", "--out", dir.string(), "--quiet"});
+  const auto r = cli(run_args({"run", "--source", "7scenes:" + data.string(), "--frames", "30", "--out", dir.string(), "--quiet"}));
   ASSERT_EQ(r.code, 0) << r.err;
 
   // Ground truth built independently from the pose files: frame i at i/30 s.
@@ -156,8 +159,8 @@ TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
   EXPECT_TRUE(std::filesystem::is_directory(dir / "tum" / "labels"));
 
   // The TUM folder is a source again: tracked, its estimate agrees with the exported poses.
-  r = cli({"run", "--source", "tum:" + (dir / "tum").string(), "--resolution", "160x120", "--out", (dir / "run").string(),
-           "--quiet"});
+  r = cli(run_args({"run", "--source", "tum:" + (dir / "tum").string(), "--resolution", "160x120", "--out", (dir / "run").string(),
+           "--quiet"}));
   ASSERT_EQ(r.code, 0) << r.err;
   auto ate = evaluate_ate_files((dir / "tum" / "groundtruth.txt").string(), (dir / "run" / "trajectory.txt").string());
   ASSERT_TRUE(ate.ok()) << to_string(ate.error());
@@ -174,8 +177,8 @@ TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
 
   r = cli({"convert", "--source", "tum:" + (dir / "tum").string(), "--to", "klg:" + (dir / "seq.klg").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
-  r = cli({"run", "--source", "klg:" + (dir / "seq.klg").string() + "?size=160x120", "--resolution", "160x120", "--out",
-           (dir / "klgrun").string(), "--quiet"});
+  r = cli(run_args({"run", "--source", "klg:" + (dir / "seq.klg").string() + "?size=160x120", "--resolution", "160x120", "--out",
+           (dir / "klgrun").string(), "--quiet"}));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(read_file(dir / "klgrun" / "stats.json").find("\"frames\":3"), std::string::npos);
 }
@@ -187,8 +190,8 @@ TEST(Cli, SourceErrorMidRunKeepsTheOutputsSoFar) {
                 "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   std::filesystem::remove(dir / "tum" / "depth" / "000003.png");
-  r = cli({"run", "--source", "tum:" + (dir / "tum").string(), "--resolution", "160x120", "--out", (dir / "run").string(),
-           "--quiet"});
+  r = cli(run_args({"run", "--source", "tum:" + (dir / "tum").string(), "--resolution", "160x120", "--out", (dir / "run").string(),
+           "--quiet"}));
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find("000003"), std::string::npos) << r.err;
   auto traj = read_tum_trajectory((dir / "run" / "trajectory.txt").string());

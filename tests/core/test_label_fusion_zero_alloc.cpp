@@ -28,8 +28,15 @@ TEST(LabelFusionZeroAlloc, FuseAllocatesNothing) {
   index.scale = 4;
   index.id.allocate(1280, 960);
   index.id.fill(-1);
+  index.depth.allocate(1280, 960);
   std::mt19937 rng(3);
-  for (int i = 0; i < 20000; ++i) index.id(int(rng() % 1280), int(rng() % 960)) = i;
+  for (int i = 0; i < 20000; ++i) {
+    const int x = int(rng() % 1280), y = int(rng() % 960);
+    index.id(x, y) = i;
+    index.depth(x, y) = (i % 3 == 0) ? 2.5f : 2.0f;  // a third are hidden behind the measured surface
+  }
+  Image<float> depth(320, 240);
+  depth.fill(2.0f);
   std::vector<float> probs(160 * 120 * semantic::kLabelClasses);
   for (float& p : probs) p = 0.01f + float(rng() % 1000) / 1000.0f;
   const semantic::ProbabilityView view{probs.data(), 120, 160, semantic::kLabelClasses};
@@ -40,6 +47,9 @@ TEST(LabelFusionZeroAlloc, FuseAllocatesNothing) {
     auto r = fusion->fuse(index, view, *pool);
     ASSERT_TRUE(r.ok());
     EXPECT_GT(r->surfels_updated, 0);
+    auto gated = fusion->fuse(index, view, *pool, depth.view());  // with the visibility test
+    ASSERT_TRUE(gated.ok());
+    EXPECT_GT(gated->hidden_skipped, 0);
   }
   EXPECT_EQ(count.thread_allocations(), 0u);
 }

@@ -1,16 +1,19 @@
 // LabelFusion::fuse on a small hand-built pool and index map: exactly the visible surfels are
 // updated, each with the CNN pixel the nearest-neighbour rule gives; labels travel with surfels
-// when the pool copies or removes them.
+// when the pool copies or removes them; merged surfels multiply their distributions.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <vector>
 
+#include "core/image.h"
 #include "semantic/label_fusion.h"
 #include "semantic/label_store.h"
 #include "slam/index_map.h"
+#include "slam/surfel_fusion.h"
 #include "slam/surfel_pool.h"
 
 namespace ef::semantic {
@@ -133,6 +136,105 @@ TEST(LabelFusion, LabelsTravelWithSurfels) {
   // A new surfel starts uniform (all zero).
   const int64_t id = pool.append(0, 0, 1, 0, 0, -1, 0.01f, 1, 0, 0);
   for (int b = 0; b < 16; ++b) EXPECT_EQ(pool.labels()[std::size_t(id) * 16 + b], 0);
+}
+
+// With the measured depth, only surfels at that depth take the CNN's label: one behind the surface
+// (its centre in a cell the nearer surfels left free) and one on a pixel without depth do not.
+TEST(LabelFusion, DepthTestSkipsHiddenSurfelsAndPixelsWithoutDepth) {
+  LabelFusionOptions opt;
+  opt.working_width = 4;
+  opt.working_height = 2;
+  opt.cnn_width = 4;
+  opt.cnn_height = 2;
+  auto fusion = LabelFusion::create(opt);
+  ASSERT_TRUE(fusion.ok());
+  slam::SurfelPool pool = make_pool(3);
+  slam::IndexMap index;
+  index.scale = 2;
+  index.id.allocate(8, 4);
+  index.id.fill(-1);
+  index.depth.allocate(8, 4);
+  index.id(0, 0) = 0;  // working pixel (0, 0): on the surface (2.00 m vs 2.02 measured)
+  index.depth(0, 0) = 2.0f;
+  index.id(1, 1) = 1;  // same pixel, 0.5 m behind: hidden
+  index.depth(1, 1) = 2.5f;
+  index.id(6, 2) = 2;  // working pixel (3, 1): no depth measured
+  index.depth(6, 2) = 1.0f;
+  Image<float> depth(4, 2);
+  depth.fill(2.02f);
+  depth(3, 1) = 0.0f;
+  const std::vector<float> probs = cnn_probs(4, 2);
+  const ProbabilityView view{probs.data(), 2, 4, kLabelClasses};
+  auto r = fusion->fuse(index, view, pool, depth.view());
+  ASSERT_TRUE(r.ok()) << to_string(r.error());
+  EXPECT_EQ(r->surfels_updated, 1);
+  EXPECT_EQ(r->hidden_skipped, 1);
+  EXPECT_EQ(r->no_depth_skipped, 1);
+  // CNN pixel (0, 0) prefers class 0: surfel 0 now has class 0 at cost 0 and the others above it.
+  EXPECT_EQ(pool.labels()[0], 0);
+  EXPECT_GT(pool.labels()[1], 0);
+  for (int b = 0; b < 16; ++b) {
+    EXPECT_EQ(pool.labels()[16 + b], 0) << b;
+    EXPECT_EQ(pool.labels()[32 + b], 0) << b;
+  }
+  // Without the depth image all three are updated.
+  auto all = fusion->fuse(index, view, pool);
+  ASSERT_TRUE(all.ok());
+  EXPECT_EQ(all->surfels_updated, 3);
+  // A depth image of the wrong size is refused.
+  Image<float> wrong(3, 2);
+  EXPECT_FALSE(fusion->fuse(index, view, pool, wrong.view()).ok());
+}
+
+TEST(LabelFusion, LabelsSurviveFlaggedRemovalInOrder) {
+  slam::SurfelPool pool = make_pool(6);
+  for (int i = 0; i < 6; ++i) pool.labels()[std::size_t(i) * 16 + 3] = static_cast<uint8_t>(40 + i);
+  const uint8_t flags[6] = {0, 1, 0, 1, 1, 0};
+  ASSERT_EQ(pool.remove_flagged(flags), 3);
+  ASSERT_EQ(pool.size(), 3);
+  const int kept[3] = {0, 2, 5};
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(pool.labels()[std::size_t(i) * 16 + 3], 40 + kept[i]) << i;
+}
+
+// Merging two surfels of one surface: the kept surfel's distribution becomes the normalised
+// product of both (both are independent evidence), within the store's rounding.
+TEST(LabelFusion, MergedSurfelsMultiplyTheirDistributions) {
+  slam::SurfelPool pool = make_pool(2);
+  float pa[kLabelClasses], pb[kLabelClasses];
+  for (int c = 0; c < kLabelClasses; ++c) {
+    pa[c] = 0.02f + 0.01f * float(c);
+    pb[c] = 0.05f;
+  }
+  pa[3] = 0.5f;   // a: class 3, b: class 7 a bit more likely than 3
+  pb[3] = 0.3f;
+  pb[7] = 0.4f;
+  encode_labels(pa, pool.labels());
+  encode_labels(pb, pool.labels() + 16);
+  uint8_t a_bytes[16], b_bytes[16];
+  std::memcpy(a_bytes, pool.labels(), 16);
+  std::memcpy(b_bytes, pool.labels() + 16, 16);
+  slam::fusion_math::merge_into(pool, 0, 1);
+
+  // Bytes: the closed form on costs.
+  int m = 255;
+  int t[kLabelClasses];
+  for (int c = 0; c < kLabelClasses; ++c) {
+    t[c] = std::min(255, int(a_bytes[c]) + int(b_bytes[c]));
+    m = std::min(m, t[c]);
+  }
+  for (int c = 0; c < kLabelClasses; ++c) EXPECT_EQ(pool.labels()[c], t[c] - m) << c;
+  EXPECT_EQ(pool.labels()[14], 0);
+  EXPECT_EQ(pool.labels()[15], 0);
+  // Probabilities: the product of the inputs, each encoding rounding by at most 1/32 nat.
+  float got[kLabelClasses];
+  decode_labels(pool.labels(), got);
+  double z = 0;
+  for (int c = 0; c < kLabelClasses; ++c) z += double(pa[c]) * double(pb[c]);
+  for (int c = 0; c < kLabelClasses; ++c) {
+    const double want = double(pa[c]) * double(pb[c]) / z;
+    EXPECT_NEAR(std::log(double(got[c])), std::log(want), 4.0 / 32.0) << c;
+  }
+  EXPECT_EQ(label_argmax(pool.labels()), 3);  // 0.5 * 0.3 > 0.04 * 0.4
 }
 
 }  // namespace

@@ -1,0 +1,132 @@
+#!/usr/bin/env python3
+"""The SemanticFusion Table I on held-out synthetic loopy sequences: single-frame CNN, the fused map
+(SF) and the fused map with the dense CRF (SF-CRF), per class, class average, pixel average and mIoU.
+
+Every number comes from the `edgefusion` program:
+  convert   synthetic:random?seed=S&trajectory=loop&frames=N at 320x240 -> a TUM folder with labels/
+  segment   the single-frame CNN on every K-th frame                       -> CNN/labels/<stem>.png
+  run       the mapper, CNN fused every --label-every frames, the map's labels rendered into every
+            K-th frame with the CNN as fallback ("captured immediately", as the paper)  -> SF/
+  run       the same with --crf-every M                                    -> SF-CRF/
+  eval labels GT EST --every K --depth DIR   for each of the three
+
+Seeds must be ones training never used (models/edgefusion_models/dataset.py: train 1..360,
+validation 9001..9012, test 7001..7024). Default 5001 5002 5003, 1200 frames each (over one lap of
+the room's loop, so the end of each sequence revisits its start).
+
+  /usr/bin/python3 bench/semantic_table.py --edgefusion build/release/firmware_app/edgefusion \\
+      --work /tmp/semantic-table [--seeds 5001 5002 5003] [--frames 1200] [--every 10] [--crf-every 500]
+Prints a Markdown table (per sequence and the mean of the sequences).
+"""
+import argparse
+import os
+import subprocess
+import sys
+
+CLASSES = ["bed", "books", "ceiling", "chair", "floor", "furniture", "objects", "painting", "sofa", "table",
+           "tv", "wall", "window"]
+HELD_OUT_FORBIDDEN = set(range(1, 361)) | set(range(9001, 9013)) | set(range(7001, 7025))
+
+
+def run(cmd):
+    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if r.returncode != 0:
+        sys.exit(f"semantic_table: command failed ({r.returncode}): {' '.join(cmd)}\n{r.stderr}")
+    return r.stdout
+
+
+def evaluate(ef, gt, est, every):
+    out = run([ef, "eval", "labels", os.path.join(gt, "labels"), est, "--every", str(every),
+               "--depth", os.path.join(gt, "depth")])
+    values = {}
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 2:
+            try:
+                values[parts[0]] = float(parts[1])
+            except ValueError:
+                pass
+    return values
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--edgefusion", required=True)
+    ap.add_argument("--work", required=True, help="folder for the sequences and outputs (reused when present)")
+    ap.add_argument("--seeds", type=int, nargs="+", default=[5001, 5002, 5003])
+    ap.add_argument("--frames", type=int, default=1200)
+    ap.add_argument("--every", type=int, default=10, help="evaluate every K-th frame (and fuse every K-th)")
+    ap.add_argument("--crf-every", type=int, default=500, help="SF-CRF: CRF every M frames (paper: 500)")
+    ap.add_argument("--sequences", nargs="*", default=[],
+                    help="existing TUM folders with labels/ to use instead of rendering seeds")
+    args = ap.parse_args()
+    ef = args.edgefusion
+    for s in args.seeds:
+        if s in HELD_OUT_FORBIDDEN:
+            sys.exit(f"semantic_table: seed {s} was used in training, validation or the model's test set")
+    os.makedirs(args.work, exist_ok=True)
+
+    sequences = list(args.sequences)
+    if not sequences:
+        for s in args.seeds:
+            folder = os.path.join(args.work, f"seed{s}")
+            if not os.path.exists(os.path.join(folder, "done")):
+                print(f"rendering seed {s} ({args.frames} frames)", file=sys.stderr)
+                run([ef, "convert", "--source",
+                     f"synthetic:random?seed={s}&trajectory=loop&frames={args.frames}",
+                     "--resolution", "320x240", "--to", "tum:" + folder, "--quiet"])
+                open(os.path.join(folder, "done"), "w").close()
+            sequences.append(folder)
+
+    rows = []  # (sequence, method, metrics)
+    for gt in sequences:
+        name = os.path.basename(os.path.normpath(gt))
+        out = os.path.join(args.work, "out-" + name)
+        print(f"{name}: single-frame CNN", file=sys.stderr)
+        run([ef, "segment", "--source", "tum:" + gt, "--out", os.path.join(out, "cnn"), "--every", str(args.every),
+             "--quiet"])
+        rows.append((name, "CNN", evaluate(ef, gt, os.path.join(out, "cnn", "labels"), args.every)))
+        for method, extra in (("SF", []), ("SF-CRF", ["--crf-every", str(args.crf_every)])):
+            print(f"{name}: {method}", file=sys.stderr)
+            d = os.path.join(out, method.lower())
+            log = run([ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
+                       "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
+                       "--quiet"] + extra)
+            print("  " + " ".join(l for l in log.splitlines() if l.startswith("frames")), file=sys.stderr)
+            rows.append((name, method, evaluate(ef, gt, os.path.join(d, "labels"), args.every)))
+
+    methods = ["CNN", "SF", "SF-CRF"]
+    names = [os.path.basename(os.path.normpath(g)) for g in sequences]
+    header = "| sequence | method | " + " | ".join(CLASSES) + " | class avg | pixel avg | mIoU |"
+    print(header)
+    print("|" + "---|" * (len(CLASSES) + 5))
+
+    def fmt(v):
+        return "-" if v is None else f"{100 * v:.1f}"
+
+    def line(seq, method, m):
+        cells = [fmt(m.get("acc_" + c)) for c in CLASSES]
+        return (f"| {seq} | {method} | " + " | ".join(cells) +
+                f" | {fmt(m.get('class_avg'))} | {fmt(m.get('pixel_avg'))} | {fmt(m.get('miou'))} |")
+
+    for seq in names:
+        for method in methods:
+            m = next(r[2] for r in rows if r[0] == seq and r[1] == method)
+            print(line(seq, method, m))
+    for method in methods:
+        ms = [r[2] for r in rows if r[1] == method]
+        mean = {}
+        for key in set().union(*ms):
+            vals = [m[key] for m in ms if key in m]
+            mean[key] = sum(vals) / len(vals)
+        print(line("mean", method, mean))
+    cnn = [r[2]["class_avg"] for r in rows if r[1] == "CNN"]
+    sf = [r[2]["class_avg"] for r in rows if r[1] == "SF"]
+    crf = [r[2]["class_avg"] for r in rows if r[1] == "SF-CRF"]
+    print(f"\nclass average, mean of {len(cnn)} sequences: CNN {100 * sum(cnn) / len(cnn):.1f}, "
+          f"SF {100 * sum(sf) / len(sf):.1f} ({100 * (sum(sf) - sum(cnn)) / len(cnn):+.1f}), "
+          f"SF-CRF {100 * sum(crf) / len(crf):.1f} ({100 * (sum(crf) - sum(cnn)) / len(cnn):+.1f})")
+
+
+if __name__ == "__main__":
+    main()

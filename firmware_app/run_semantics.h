@@ -1,0 +1,83 @@
+// The semantic half of `edgefusion run` (SemanticFusion, McCormac et al. ICRA 2017): after the
+// surfel SLAM has processed a frame,
+//   every label_every-th frame   the CNN segments the working frame (semantic/segmenter.h) and its
+//                                probabilities multiply into every surfel the new index map shows
+//                                (semantic/label_fusion.h); lost frames are not fused;
+//   every crf_every-th frame     the dense CRF over the whole map (semantic/dense_crf.h), if on;
+//   every labels_out_every-th    the map's labels rendered into the frame's view, with the CNN's own
+//                                prediction where no labelled surfel is seen (semantic/label_render.h),
+//                                written as DIR/<frame name>.png (class ids) for `eval labels`;
+//   at the end                   the CRF once more if crf_final; map.ply's class columns.
+// Memory: create() allocates everything (segmenter, fusion buffers, CRF lattice, the rendered and
+// fallback images, the class columns of map.ply); on_frame() allocates only inside libpng when it
+// writes a label image.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/frame.h"
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/result.h"
+#include "core/stage_stats.h"
+#include "io/ply_writer.h"
+#include "run_config.h"
+#if __has_include("semantic/dense_crf.h")  // TEMP until the CRF lands
+#include "semantic/dense_crf.h"
+#define EF_TMP_CRF 1
+#endif
+#include "semantic/label_fusion.h"
+#include "semantic/segmenter.h"
+#include "slam/surfel_slam.h"
+
+namespace ef::app {
+
+class RunSemantics {
+ public:
+  // Loads the model (config.model or the shipped one), sizes every buffer for `working` and a pool
+  // of config.surfel_capacity surfels, registers its stages and counters in `stats`, and creates
+  // config.labels_out. Errors name the model file or the folder.
+  static Result<std::unique_ptr<RunSemantics>> create(const RunConfig& config, const Intrinsics& working,
+                                                      StageStats& stats);
+
+  // After slam.process(frame) of frame number `frame_number` (0-based count of processed frames).
+  Status on_frame(int64_t frame_number, const Frame& working, const slam::SlamFrameResult& result,
+                  slam::SurfelSlam& slam);
+  // At the end of the run, before the map is written: the final CRF if asked for.
+  Status finish(slam::SurfelSlam& slam);
+  // Fills `view`'s class_id and class_prob columns from the pool's label store.
+  void add_label_columns(const slam::SurfelPool& pool, SurfelCloudView& view);
+
+  // "model edgefusion-seg.efm (160x120 -> 14 classes), labels every 10 frames, CRF off" for the log.
+  std::string describe() const;
+  std::size_t bytes() const;  // everything create() allocated (for the memory line)
+
+ private:
+  RunSemantics() = default;
+  Status write_rendering(const Frame& working, const slam::SlamFrameResult& result, slam::SurfelSlam& slam);
+  Status run_crf(slam::SurfelSlam& slam);
+
+  RunConfig config_;
+  std::string model_path_;
+  std::unique_ptr<semantic::Segmenter> segmenter_;
+  std::unique_ptr<semantic::LabelFusion> fusion_;
+#ifdef EF_TMP_CRF
+  std::unique_ptr<semantic::DenseCrf> crf_;  // null when neither crf_every nor crf_final
+#else
+  std::unique_ptr<int> crf_;
+#endif
+  Image<uint8_t> cnn_labels_;                // the CNN's class ids at the working size (fallback)
+  Image<uint8_t> rendered_;                  // the map's labels at the working size
+  std::vector<uint8_t> class_id_;            // map.ply columns, one per pool slot
+  std::vector<float> class_prob_;
+  StageStats* stats_ = nullptr;
+  int st_segment_ = -1, st_fuse_ = -1, st_render_ = -1, st_crf_ = -1;
+  int c_cnn_frames_ = -1, c_surfel_updates_ = -1, c_hidden_ = -1, c_no_depth_ = -1, c_label_images_ = -1;
+  int c_crf_runs_ = -1;
+  int64_t last_crf_frame_ = -1;
+};
+
+}  // namespace ef::app
