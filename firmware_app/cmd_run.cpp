@@ -73,7 +73,7 @@ std::string run_help() {
 // Counters written to stats.json, registered once at start-up.
 struct RunCounters {
   int frames, frames_with_pose, frames_with_labels, lost_frames, fused_frames, surfels_created, surfels_removed,
-      surfels_evicted, surfels_refused;
+      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped;
 };
 
 // Stage ids of the SLAM steps in StageStats.
@@ -167,7 +167,8 @@ int cmd_run(int argc, char** argv) {
                       stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
                       stats.add_counter("fused_frames"),    stats.add_counter("surfels_created"),
                       stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
-                      stats.add_counter("surfels_refused")};
+                      stats.add_counter("surfels_refused"), stats.add_counter("camera_lost"),
+                      stats.add_counter("corrupt_frames_dropped")};
 
   TumTrajectoryWriter trajectory;
   if (Status s = trajectory.open(trajectory_path); !s.ok()) return report_error(kCmd, s.error(), 1);
@@ -194,6 +195,18 @@ int cmd_run(int argc, char** argv) {
     auto got = source.next(input);
     if (!got.ok() || !*got) t_source.cancel();  // only delivered frames count in the stage's timing
     if (!got.ok()) {
+      if (is_camera_lost(info, got.error())) {
+        // A camera that vanished ends capture like a stop: what was mapped so far is written below.
+        std::fprintf(stderr, "%s: %s; capture stopped, writing the outputs of %lld frames\n", kCmd,
+                     got.error().message.c_str(), static_cast<long long>(frames));
+        stats.increment(c.camera_lost);
+        break;
+      }
+      if (info.live && got.error().code == ErrorCode::kCorruptData) {
+        // One bad frame of a live camera: dropped and counted, capture goes on.
+        stats.increment(c.corrupt_frames_dropped);
+        continue;
+      }
       // Keep what was already accepted: the trajectory, map and statistics so far are written below.
       report_error(kCmd, got.error(), 1);
       exit_code = 1;

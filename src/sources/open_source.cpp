@@ -3,6 +3,7 @@
 #include "io/klg_format.h"
 #include "io/sevenscenes_source.h"
 #include "io/tum_source.h"
+#include "platform/devices/cameras.h"
 #include "synth/synthetic_source.h"
 
 namespace ef {
@@ -13,16 +14,24 @@ Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri_text) {
   if (uri.scheme == "tum") return open_tum(uri);
   if (uri.scheme == "7scenes") return open_7scenes(uri);
   if (uri.scheme == "klg") return open_klg(uri);
-  if (uri.scheme == "openni2" || uri.scheme == "v4l2")
-    return error(ErrorCode::kUnsupported, "source '" + uri_text + "': live cameras (" + uri.scheme +
-                                              ":) are not in this build yet");
+  if (uri.scheme == "openni2" || uri.scheme == "v4l2") {
+    auto camera = uri.scheme == "openni2" ? open_openni2_camera(uri) : open_v4l2_camera(uri);
+    if (!camera.ok()) return camera.take_error();
+    return std::unique_ptr<FrameSource>(std::move(camera).value());
+  }
   return error(ErrorCode::kInvalidArgument, "source '" + uri_text + "': unknown scheme '" + uri.scheme +
                                                 "' (expected one of: " + source_uri_help() + ")");
 }
 
+bool is_camera_lost(const SourceInfo& source, const Error& err) {
+  return source.live && err.code == ErrorCode::kNotFound;
+}
+
 const char* source_uri_help() {
   return "synthetic:, synthetic:ROOM, synthetic:random?seed=N (query: seed, trajectory=loop|robot, frames, "
-         "size=WxH, noise=0|1), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH]";
+         "size=WxH, noise=0|1), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH], openni2:[DEVICE|FILE.oni] "
+         "(query: size=WxH, fps, timeout_ms, registration=0|1, fx, fy, cx, cy), v4l2:/dev/videoN (query: "
+         "format=rgb|z16, size=WxH, fps, timeout_ms, depth_scale, fx, fy, cx, cy)";
 }
 
 }  // namespace ef
