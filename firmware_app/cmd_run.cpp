@@ -1,6 +1,7 @@
 // `edgefusion run`: map a source. Replays it at the working resolution through the surfel SLAM
 // (slam/surfel_slam.h) and writes the estimated trajectory, the surfel map and the run statistics.
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -17,6 +18,7 @@
 #include "progress.h"
 #include "run_config.h"
 #include "run_semantics.h"
+#include "stop_signal.h"
 #include "slam/surfel_slam.h"
 #include "sources/open_source.h"
 #include "synth/synthetic_source.h"
@@ -73,7 +75,7 @@ std::string run_help() {
 // Counters written to stats.json, registered once at start-up.
 struct RunCounters {
   int frames, frames_with_pose, frames_with_labels, lost_frames, fused_frames, surfels_created, surfels_removed,
-      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped;
+      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped, stopped_by_signal;
 };
 
 // Stage ids of the SLAM steps in StageStats.
@@ -168,8 +170,10 @@ int cmd_run(int argc, char** argv) {
                       stats.add_counter("fused_frames"),    stats.add_counter("surfels_created"),
                       stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
                       stats.add_counter("surfels_refused"), stats.add_counter("camera_lost"),
-                      stats.add_counter("corrupt_frames_dropped")};
+                      stats.add_counter("corrupt_frames_dropped"), stats.add_counter("stopped_by_signal")};
 
+  // SIGINT / SIGTERM from here on: finish the frame in hand, write everything below and exit 0.
+  StopSignalScope stop_signal;
   TumTrajectoryWriter trajectory;
   if (Status s = trajectory.open(trajectory_path); !s.ok()) return report_error(kCmd, s.error(), 1);
 
@@ -191,6 +195,12 @@ int cmd_run(int argc, char** argv) {
   slam::SlamFrameResult result;
   char line[96];
   while (config.max_frames < 0 || frames < config.max_frames) {
+    if (stop_signal.stop_requested()) {
+      std::fprintf(stderr, "\n%s: %s received after %lld frames: stopping, writing the outputs\n", kCmd,
+                   stop_signal.signal_number() == SIGINT ? "SIGINT" : "SIGTERM", static_cast<long long>(frames));
+      stats.increment(c.stopped_by_signal);
+      break;
+    }
     ScopedStageTimer t_source(stats, st_source);
     auto got = source.next(input);
     if (!got.ok() || !*got) t_source.cancel();  // only delivered frames count in the stage's timing
