@@ -25,10 +25,7 @@
 #include "core/stage_stats.h"
 #include "io/ply_writer.h"
 #include "run_config.h"
-#if __has_include("semantic/dense_crf.h")  // TEMP until the CRF lands
 #include "semantic/dense_crf.h"
-#define EF_TMP_CRF 1
-#endif
 #include "semantic/label_fusion.h"
 #include "semantic/segmenter.h"
 #include "slam/surfel_slam.h"
@@ -64,11 +61,7 @@ class RunSemantics {
   std::string model_path_;
   std::unique_ptr<semantic::Segmenter> segmenter_;
   std::unique_ptr<semantic::LabelFusion> fusion_;
-#ifdef EF_TMP_CRF
   std::unique_ptr<semantic::DenseCrf> crf_;  // null when neither crf_every nor crf_final
-#else
-  std::unique_ptr<int> crf_;
-#endif
   Image<uint8_t> cnn_labels_;                // the CNN's class ids at the working size (fallback)
   Image<uint8_t> rendered_;                  // the map's labels at the working size
   std::vector<uint8_t> class_id_;            // map.ply columns, one per pool slot
@@ -76,7 +69,7 @@ class RunSemantics {
   StageStats* stats_ = nullptr;
   int st_segment_ = -1, st_fuse_ = -1, st_render_ = -1, st_crf_ = -1;
   int c_cnn_frames_ = -1, c_surfel_updates_ = -1, c_hidden_ = -1, c_no_depth_ = -1, c_label_images_ = -1;
-  int c_crf_runs_ = -1;
+  int c_crf_runs_ = -1, c_crf_left_out_ = -1;
   int64_t last_crf_frame_ = -1;
 };
 

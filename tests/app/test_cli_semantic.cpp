@@ -118,6 +118,35 @@ TEST(CliSemantic, RunFusesLabelsRendersThemAndWritesClassColumns) {
   EXPECT_EQ(stats_counter(read_file(dir / "geometry" / "stats.json"), "cnn_frames"), -1);
 }
 
+// The dense CRF runs every M frames and once more at the end; it changes the map's labels.
+TEST(CliSemantic, CrfEveryMFramesAndAtTheEnd) {
+  const auto dir = test::scratch_dir("cli-semantic-crf");
+  const fs::path model = tiny_model(dir);
+  const std::string uri = "synthetic:bedroom?frames=10&size=160x120";
+  auto r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",
+           "--crf-every", "4", "--crf-final", "--crf-iterations", "3", "--out", (dir / "crf").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string stats = read_file(dir / "crf" / "stats.json");
+  EXPECT_EQ(stats_counter(stats, "crf_runs"), 3) << stats;  // frames 4 and 8, then the end (frame 10)
+  EXPECT_EQ(stats_counter(stats, "crf_surfels_left_out"), 0) << stats;
+  EXPECT_NE(r.err.find("dense CRF at frame 10"), std::string::npos) << r.err;
+
+  r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",
+           "--out", (dir / "nocrf").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto with = read_surfel_ply((dir / "crf" / "map.ply").string());
+  auto without = read_surfel_ply((dir / "nocrf" / "map.ply").string());
+  ASSERT_TRUE(with.ok());
+  ASSERT_TRUE(without.ok());
+  ASSERT_EQ(with->size(), without->size());  // the CRF touches labels only, never geometry
+  std::size_t changed = 0;
+  for (std::size_t i = 0; i < with->size(); ++i) {
+    ASSERT_EQ(with->x[i], without->x[i]);
+    changed += with->class_id[i] != without->class_id[i] || with->class_prob[i] != without->class_prob[i];
+  }
+  EXPECT_GT(changed, with->size() / 10) << changed << " of " << with->size();
+}
+
 TEST(CliSemantic, OptionErrorsNameTheOptionOrKey) {
   const auto dir = test::scratch_dir("cli-semantic-errors");
   auto r = cli({"run", "--source", "synthetic:?frames=2", "--no-labels", "--labels-out", (dir / "l").string(), "--out",

@@ -1,0 +1,352 @@
+#include "semantic/dense_crf.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "semantic/label_store.h"
+
+namespace ef::semantic {
+
+namespace {
+using Lattice = PermutohedralLattice;
+constexpr int kV = Lattice::kValues;
+constexpr int64_t kMaxCapacity = 100'000'000 / Lattice::kSimplex;
+constexpr float kQOne = 65535.0f;  // Q is stored in units of 1/65535
+constexpr int kDensityLane = 14;    // a padding lane of Q: splats 1 for the scale calibration
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// e^x for x in [-87, 0] (callers clamp), relative error below 2e-7: x = n ln 2 + r with |r| <= ln2/2,
+// e^r by its Taylor polynomial to r^6, 2^n put into the exponent bits. Plain float and int loops over
+// the 16 lanes, which vectorise.
+inline void exp_nonpositive16(const float* __restrict x, float* __restrict out) {
+  alignas(64) int32_t bits[kV];
+  alignas(64) float scale[kV];
+  for (int c = 0; c < kV; ++c) {
+    const float t = x[c] * 1.44269504f;
+    const int32_t n = int32_t(t - 0.5f);  // t <= 0: truncation of t - 0.5 rounds to nearest
+    const float r = (x[c] - float(n) * 0.693145752f) - float(n) * 1.42860677e-6f;
+    float p = 1.0f / 720.0f;
+    p = p * r + 1.0f / 120.0f;
+    p = p * r + 1.0f / 24.0f;
+    p = p * r + 1.0f / 6.0f;
+    p = p * r + 0.5f;
+    p = p * r + 1.0f;
+    p = p * r + 1.0f;
+    out[c] = p;
+    bits[c] = (n + 127) << 23;
+  }
+  std::memcpy(scale, bits, sizeof(scale));
+  for (int c = 0; c < kV; ++c) out[c] *= scale[c];
+}
+
+// z: kV floats, the first kLabelClasses are -psi_u + message (nats); writes the normalised
+// distribution into q (padding lanes 0).
+inline void softmax_classes(float* __restrict z, float* __restrict q) {
+  z[14] = z[15] = -1e30f;
+  float mx = z[0];
+  for (int c = 1; c < kV; ++c) mx = z[c] > mx ? z[c] : mx;
+  alignas(64) float x[kV], e[kV];
+  for (int c = 0; c < kV; ++c) {
+    const float d = z[c] - mx;
+    x[c] = d < -87.0f ? -87.0f : d;
+  }
+  exp_nonpositive16(x, e);
+  e[14] = e[15] = 0.0f;
+  float sum = 0;
+  for (int c = 0; c < kV; ++c) sum += e[c];
+  const float inv = 1.0f / sum;
+  for (int c = 0; c < kV; ++c) q[c] = e[c] * inv;
+}
+
+// Q in units of 1/65535; the density lane holds 1 (65535) so that every filter also sums the kernel.
+inline void store_q(const float* q, uint16_t* out) {
+  for (int c = 0; c < kV; ++c) out[c] = uint16_t(q[c] * kQOne + 0.5f);
+  out[kDensityLane] = uint16_t(kQOne);
+}
+}  // namespace
+
+int64_t DenseCrfOptions::lattice_vertices() const {
+  if (max_lattice_vertices > 0) return max_lattice_vertices;
+  const int64_t derived = (capacity * 3 + 9) / 10;
+  return derived < Lattice::kSimplex ? Lattice::kSimplex : derived;
+}
+
+Status DenseCrfOptions::validate() const {
+  auto positive = [](float v) { return std::isfinite(v) && v > 0; };
+  auto non_negative = [](float v) { return std::isfinite(v) && v >= 0; };
+  if (!positive(bilateral_theta_position_m) || !positive(bilateral_theta_color) ||
+      !positive(spatial_theta_position_m) || !positive(spatial_theta_normal))
+    return error(ErrorCode::kInvalidArgument,
+                 "dense crf: every kernel standard deviation (theta) must be finite and > 0 (" + describe() + ")");
+  if (!non_negative(bilateral_weight) || !non_negative(spatial_weight))
+    return error(ErrorCode::kInvalidArgument,
+                 "dense crf: kernel weights must be finite and >= 0 (" + describe() + ")");
+  if (iterations < 1 || iterations > 1000)
+    return error(ErrorCode::kInvalidArgument,
+                 "dense crf: iterations " + std::to_string(iterations) + " must be in 1..1000");
+  if (capacity < 1 || capacity > kMaxCapacity)
+    return error(ErrorCode::kInvalidArgument, "dense crf: capacity " + std::to_string(capacity) +
+                                                  " must be in 1.." + std::to_string(kMaxCapacity) + " surfels");
+  if (calibration_samples < 0 || calibration_samples > 4096)
+    return error(ErrorCode::kInvalidArgument, "dense crf: calibration_samples " +
+                                                  std::to_string(calibration_samples) + " must be in 0..4096");
+  if (max_lattice_vertices != 0 && (max_lattice_vertices < Lattice::kSimplex || max_lattice_vertices > kMaxCapacity))
+    return error(ErrorCode::kInvalidArgument, "dense crf: max_lattice_vertices " +
+                                                  std::to_string(max_lattice_vertices) + " must be 0 (derived) or in " +
+                                                  std::to_string(Lattice::kSimplex) + ".." +
+                                                  std::to_string(kMaxCapacity));
+  return Status::success();
+}
+
+std::string DenseCrfOptions::describe() const {
+  std::ostringstream s;
+  s << "bilateral theta " << bilateral_theta_position_m << " m / colour " << bilateral_theta_color << ", weight "
+    << bilateral_weight << "; spatial theta " << spatial_theta_position_m << " m / normal " << spatial_theta_normal
+    << ", weight " << spatial_weight << "; " << iterations << " iterations; capacity " << capacity
+    << " surfels, " << lattice_vertices() << " lattice vertices per kernel"
+    << (max_lattice_vertices == 0 ? " (derived)" : "") << "; " << calibration_samples << " calibration samples";
+  return s.str();
+}
+
+Result<DenseCrf> DenseCrf::create(const DenseCrfOptions& options) {
+  EF_RETURN_IF_ERROR(options.validate());
+  DenseCrf crf;
+  crf.options_ = options;
+  const int64_t max_vertices = options.lattice_vertices();
+  EF_ASSIGN_OR_RETURN(crf.bilateral_, Lattice::create(options.capacity, max_vertices));
+  EF_ASSIGN_OR_RETURN(crf.spatial_, Lattice::create(options.capacity, max_vertices));
+  crf.scratch_floats_ = Lattice::scratch_floats(max_vertices);
+  for (auto& buffer : crf.scratch_) buffer = make_aligned_array<float>(crf.scratch_floats_);
+  crf.q_ = make_aligned_array<uint16_t>(std::size_t(options.capacity) * kV);
+  crf.order_ = make_aligned_array<uint32_t>(std::size_t(options.capacity));
+  return crf;
+}
+
+std::size_t DenseCrf::bytes() const {
+  return bilateral_.bytes() + spatial_.bytes() + 2 * scratch_floats_ * sizeof(float) +
+         std::size_t(options_.capacity) * (kV * sizeof(uint16_t) + sizeof(uint32_t));
+}
+
+Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const int64_t n = pool.size();
+  DenseCrfStats stats;
+  stats.surfels = n;
+  if (n > options_.capacity)
+    return error(ErrorCode::kResourceExhausted, "dense crf: the pool holds " + std::to_string(n) +
+                                                    " surfels, more than the CRF's capacity " +
+                                                    std::to_string(options_.capacity) + " (DenseCrfOptions::capacity)");
+  if (n == 0) return stats;
+
+  const float *px = pool.x(), *py = pool.y(), *pz = pool.z();
+  const float *nx = pool.nx(), *ny = pool.ny(), *nz = pool.nz();
+  const uint32_t* color = pool.color();
+  // The map's centre (middle of the bounding box) keeps lattice keys small.
+  float lo[3] = {px[0], py[0], pz[0]}, hi[3] = {px[0], py[0], pz[0]};
+  for (int64_t i = 0; i < n; ++i) {
+    const float p[3] = {px[i], py[i], pz[i]};
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]) || !std::isfinite(nx[i]) ||
+        !std::isfinite(ny[i]) || !std::isfinite(nz[i]))
+      return error(ErrorCode::kOutOfRange,
+                   "dense crf: surfel " + std::to_string(i) + " has a non-finite position or normal");
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = p[a] < lo[a] ? p[a] : lo[a];
+      hi[a] = p[a] > hi[a] ? p[a] : hi[a];
+    }
+  }
+  const float centre[3] = {0.5f * (lo[0] + hi[0]), 0.5f * (lo[1] + hi[1]), 0.5f * (lo[2] + hi[2])};
+
+  // Processing order: surfels sorted by cells of 2 theta_alpha (x fastest, then y, z; pool order
+  // within a cell; coarser cells when the grid would not fit the scratch), by counting sort. The
+  // CRF's per-surfel arrays are kept in this order ("slots"), so neighbouring surfels touch
+  // neighbouring lattice vertices: the lattice rows stay in cache. A SLAM pool's order follows
+  // time, not space.
+  float* scratch = scratch_[0].get();
+  uint32_t* order = order_.get();
+  {
+    const double extent[3] = {double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2]};
+    double cell = 2.0 * double(std::max(options_.bilateral_theta_position_m, options_.spatial_theta_position_m));
+    int64_t dims[3] = {1, 1, 1};
+    const auto room = int64_t(scratch_floats_) - 1;
+    auto grid_cells = [&](double side) {
+      double cells = 1;
+      for (int a = 0; a < 3; ++a) cells *= std::floor(extent[a] / side) + 1;
+      return cells;
+    };
+    while (grid_cells(cell) > double(room)) cell *= 2;
+    for (int a = 0; a < 3; ++a) dims[a] = int64_t(extent[a] / cell) + 1;
+    const double inv = 1.0 / cell;
+    auto axis = [&](float p, float low, int a) {
+      const double t = (double(p) - double(low)) * inv;
+      return t <= 0 ? int64_t(0) : (t >= double(dims[a] - 1) ? dims[a] - 1 : int64_t(t));
+    };
+    auto cell_of = [&](int64_t i) {
+      return std::size_t((axis(pz[i], lo[2], 2) * dims[1] + axis(py[i], lo[1], 1)) * dims[0] + axis(px[i], lo[0], 0));
+    };
+    uint32_t* counts = reinterpret_cast<uint32_t*>(scratch);
+    const auto cells = std::size_t(dims[0] * dims[1] * dims[2]);
+    std::memset(counts, 0, (cells + 1) * sizeof(uint32_t));
+    for (int64_t i = 0; i < n; ++i) ++counts[cell_of(i) + 1];
+    for (std::size_t c = 1; c <= cells; ++c) counts[c] += counts[c - 1];
+    for (int64_t i = 0; i < n; ++i) order[counts[cell_of(i)]++] = uint32_t(i);
+  }
+
+  // Lattices, once per run (features do not change across iterations); point k = surfel order[k].
+  auto build = [&](Lattice& lattice, float inv_pos, float inv_other, bool colour) -> Status {
+    lattice.begin(scratch);
+    for (int64_t k = 0; k < n; ++k) {
+      const int64_t i = order[k];
+      float f[Lattice::kDims] = {(px[i] - centre[0]) * inv_pos, (py[i] - centre[1]) * inv_pos,
+                                 (pz[i] - centre[2]) * inv_pos};
+      if (colour) {
+        f[3] = float(slam::unpack_r(color[i])) * inv_other;
+        f[4] = float(slam::unpack_g(color[i])) * inv_other;
+        f[5] = float(slam::unpack_b(color[i])) * inv_other;
+      } else {
+        f[3] = nx[i] * inv_other;
+        f[4] = ny[i] * inv_other;
+        f[5] = nz[i] * inv_other;
+      }
+      if (lattice.add(f) == Lattice::AddResult::kOutOfRange)
+        return error(ErrorCode::kOutOfRange, "dense crf: surfel " + std::to_string(i) + " at (" +
+                                                 std::to_string(px[i]) + ", " + std::to_string(py[i]) + ", " +
+                                                 std::to_string(pz[i]) +
+                                                 ") m is too far from the map's centre for the lattice keys");
+    }
+    lattice.finish();
+    return Status::success();
+  };
+  EF_RETURN_IF_ERROR(build(bilateral_, 1.0f / options_.bilateral_theta_position_m,
+                           1.0f / options_.bilateral_theta_color, true));
+  EF_RETURN_IF_ERROR(
+      build(spatial_, 1.0f / options_.spatial_theta_position_m, 1.0f / options_.spatial_theta_normal, false));
+  // A surfel either lattice left out takes no part at all.
+  for (int64_t i = 0; i < n; ++i) {
+    if (bilateral_.included(i) && spatial_.included(i)) continue;
+    bilateral_.exclude(i);
+    spatial_.exclude(i);
+    ++stats.surfels_left_out;
+  }
+  stats.bilateral_vertices = bilateral_.vertices();
+  stats.spatial_vertices = spatial_.vertices();
+  stats.build_ms = ms_since(t_start);
+
+  const auto t_iterate = std::chrono::steady_clock::now();
+  uint8_t* labels = pool.labels();
+  uint16_t* q16 = q_.get();
+  // Initialisation: Q = softmax(-psi_u), psi_u(l) = cost_l / 16 nats (+ a constant per surfel).
+  for (int64_t i = 0; i < n; ++i) {
+    alignas(64) float z[kV], q[kV];
+    const uint8_t* cost = labels + std::size_t(order[i]) * kLabelBytes;
+    for (int c = 0; c < kLabelClasses; ++c) z[c] = -float(cost[c]) * kLabelCostStep;
+    softmax_classes(z, q);
+    store_q(q, q16 + i * kV);
+  }
+
+  // Filtered values are sums of splatted Q (units 1/65535) x weights (65535 = 1) x weights.
+  const float w1 = options_.bilateral_weight, w2 = options_.spatial_weight;
+  float g1 = bilateral_.gaussian_scale() / kQOne, g2 = spatial_.gaussian_scale() / kQOne;
+  const float s1 = bilateral_.gaussian_scale(), s2 = spatial_.gaussian_scale();
+  // Each kernel has its own splat buffer, so one pass over the surfels slices iteration t's filters
+  // and splats iteration t+1's Q; then both buffers are blurred into the lattices' values.
+  float* splat1 = bilateral_.begin_splat(scratch_[0].get());
+  float* splat2 = spatial_.begin_splat(scratch_[1].get());
+  for (int64_t i = 0; i < n; ++i) {
+    if (!bilateral_.included(i)) continue;
+    bilateral_.splat(i, q16 + i * kV, splat1);
+    spatial_.splat(i, q16 + i * kV, splat2);
+  }
+  bilateral_.blur(splat1);
+  spatial_.blur(splat2);
+  for (int it = 0; it < options_.iterations; ++it) {
+    if (it == 0 && options_.calibration_samples > 0) {
+      // Scale calibration: the sparse lattice loses the mass its blur sends to vertices no surfel
+      // touched, by a nearly constant factor on a surface (corrections of 1.3-1.4 on the test maps
+      // and on bench_crf's map). The exact kernel sums sum_j k(f_s, f_j) of a stride of sample
+      // surfels against the lattice's (the density lane) give each kernel's factor. Self weights
+      // stay in the analytic scale (their paths lose about the same share).
+      const int64_t samples = std::min<int64_t>(options_.calibration_samples, n);
+      double exact1 = 0, exact2 = 0, lattice1 = 0, lattice2 = 0;
+      const float ip1 = 1.0f / options_.bilateral_theta_position_m, ic = 1.0f / options_.bilateral_theta_color;
+      const float ip2 = 1.0f / options_.spatial_theta_position_m, in = 1.0f / options_.spatial_theta_normal;
+      for (int64_t k = 0; k < samples; ++k) {
+        const int64_t slot = (k * n) / samples, s = order[slot];
+        if (!bilateral_.included(slot)) continue;
+        alignas(64) float a[kV], b[kV];
+        bilateral_.slice(slot, a);
+        spatial_.slice(slot, b);
+        lattice1 += double(a[kDensityLane]) * double(g1);
+        lattice2 += double(b[kDensityLane]) * double(g2);
+        const float cr = float(slam::unpack_r(color[s])), cg = float(slam::unpack_g(color[s])),
+                    cb = float(slam::unpack_b(color[s]));
+        for (int64_t kj = 0; kj < n; ++kj) {
+          // Pool order (sequential reads) when every surfel takes part, else slot order.
+          const int64_t j = stats.surfels_left_out == 0 ? kj : int64_t(order[kj]);
+          if (stats.surfels_left_out != 0 && !bilateral_.included(kj)) continue;
+          const float dx = px[j] - px[s], dy = py[j] - py[s], dz = pz[j] - pz[s];
+          const float p2 = dx * dx + dy * dy + dz * dz;
+          const float d1 = p2 * ip1 * ip1, d2 = p2 * ip2 * ip2;
+          if (d1 > 50.0f && d2 > 50.0f) continue;  // both kernels below e^-25
+          const float r = float(slam::unpack_r(color[j])) - cr, g = float(slam::unpack_g(color[j])) - cg,
+                      bb = float(slam::unpack_b(color[j])) - cb;
+          const float ex = nx[j] - nx[s], ey = ny[j] - ny[s], ez = nz[j] - nz[s];
+          exact1 += std::exp(-0.5 * double(d1 + (r * r + g * g + bb * bb) * ic * ic));
+          exact2 += std::exp(-0.5 * double(d2 + (ex * ex + ey * ey + ez * ez) * in * in));
+        }
+      }
+      if (lattice1 > 0 && exact1 > 0) stats.bilateral_scale_correction = float(exact1 / lattice1);
+      if (lattice2 > 0 && exact2 > 0) stats.spatial_scale_correction = float(exact2 / lattice2);
+      g1 *= stats.bilateral_scale_correction;
+      g2 *= stats.spatial_scale_correction;
+    }
+    const bool last = it + 1 == options_.iterations;
+    if (!last) {
+      bilateral_.begin_splat(splat1);
+      spatial_.begin_splat(splat2);
+    }
+    for (int64_t i = 0; i < n; ++i) {
+      if (!bilateral_.included(i)) continue;
+      alignas(64) float a[kV], b[kV], z[kV], q[kV];
+      bilateral_.slice(i, a);
+      spatial_.slice(i, b);
+      // The surfel's own share of each filter, in the same units, is taken out (s' != s).
+      const float self1 = s1 * bilateral_.self_weight(i), self2 = s2 * spatial_.self_weight(i);
+      const uint16_t* qi = q16 + i * kV;
+      uint8_t* cost = labels + std::size_t(order[i]) * kLabelBytes;
+      for (int c = 0; c < kV; ++c) {
+        const float own = float(qi[c]) * (1.0f / kQOne);
+        const float message = w1 * (g1 * a[c] - self1 * own) + w2 * (g2 * b[c] - self2 * own);
+        z[c] = message - float(cost[c]) * kLabelCostStep;
+      }
+      softmax_classes(z, q);
+      if (last) {
+        encode_labels(q, cost);
+      } else {
+        // Splat exactly the stored (quantised) Q, which the next iteration's self term uses.
+        uint16_t* next = q16 + i * kV;
+        store_q(q, next);
+        alignas(64) float stored[kV];
+        for (int c = 0; c < kV; ++c) stored[c] = float(next[c]);
+        bilateral_.splat(i, stored, splat1);
+        spatial_.splat(i, stored, splat2);
+      }
+    }
+    if (!last) {
+      bilateral_.blur(splat1);
+      spatial_.blur(splat2);
+    }
+  }
+  stats.surfels_updated = n - stats.surfels_left_out;
+  stats.iterations = options_.iterations;
+  stats.iterate_ms = ms_since(t_iterate);
+  stats.total_ms = ms_since(t_start);
+  return stats;
+}
+
+}  // namespace ef::semantic
