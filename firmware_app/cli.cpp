@@ -24,6 +24,7 @@ void print_main_help() {
       "  convert   turn any source into an ElasticFusion .klg log or a TUM RGB-D folder\n"
       "  segment   run the segmentation network on a source: class-id images per frame\n"
       "  model     inspect a network (info) or quantise an ONNX one to .efm (import)\n"
+      "  plan      print the memory a run of a configuration allocates, part by part, against its budget\n"
       "  version   print the version and the CPU paths this machine can use\n\n"
       "Sources: %s\n",
       kVersion, source_uri_help_text());
@@ -50,8 +51,9 @@ int run_cli(int argc, char** argv) {
   if (cmd == "convert") return cmd_convert(argc, argv);
   if (cmd == "segment") return cmd_segment(argc, argv);
   if (cmd == "model") return cmd_model(argc, argv);
+  if (cmd == "plan") return cmd_plan(argc, argv);
   std::fprintf(stderr,
-               "edgefusion: unknown command '%s' (expected run, eval, convert, segment, model, version; see --help)\n",
+               "edgefusion: unknown command '%s' (expected run, eval, convert, segment, model, plan, version; see --help)\n",
                cmd.c_str());
   return 2;
 }

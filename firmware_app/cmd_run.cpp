@@ -15,6 +15,7 @@
 #include "io/ply_writer.h"
 #include "io/stats_json.h"
 #include "io/trajectory_io.h"
+#include "memory_plan.h"
 #include "progress.h"
 #include "run_config.h"
 #include "run_semantics.h"
@@ -27,28 +28,7 @@ namespace ef::app {
 
 namespace {
 
-const std::vector<OptionSpec>& run_options() {
-  static const std::vector<OptionSpec> specs = {
-      {"--source", "URI", "frame source; default synthetic: (see below)"},
-      {"--config", "FILE",
-       "configuration file (key: value lines; keys source, resolution, frames, out, progress, map, "
-       "surfel_capacity, icp_weight, rgb_weight, depth_cutoff_m, labels, model, label_every, labels_out, "
-       "labels_out_every, crf_every, crf_final, crf_iterations)"},
-      {"--resolution", "WxH", "working resolution for tracking and label fusion, pixels; default 320x240"},
-      {"--frames", "N", "process at most N frames; default all the source has"},
-      {"--out", "DIR", "output folder, created if missing; required here or in the configuration"},
-      {"--quiet", "", "no progress line"},
-      {"--model", "FILE", "segmentation model (.efm); default the shipped model"},
-      {"--no-labels", "", "geometry only: no CNN, no label fusion, no class in map.ply"},
-      {"--label-every", "N", "segment and fuse labels every N-th frame; default 10 (the paper's)"},
-      {"--labels-out", "DIR", "write the map's labels rendered into every K-th frame as DIR/<frame>.png"},
-      {"--labels-out-every", "K", "with --labels-out: every K-th frame, counted from the first; default 10"},
-      {"--crf-every", "M", "dense CRF over the whole map every M frames; default 0 = off (paper: 500)"},
-      {"--crf-final", "", "dense CRF over the whole map once at the end, before map.ply is written"},
-      {"--crf-iterations", "N", "mean-field iterations per CRF run, 1..100; default 10"},
-  };
-  return specs;
-}
+const std::vector<OptionSpec>& run_options() { return config_override_options(); }
 
 std::string run_help() {
   std::string rooms;
@@ -103,28 +83,18 @@ int cmd_run(int argc, char** argv) {
   auto args = parse_args(kCmd, run_options(), 0, argc, argv, 2);
   if (!args.ok()) return report_error(kCmd, args.error(), 2);
 
-  RunConfig config;
-  if (args->has("--config")) {
-    if (Status s = apply_config_file(args->get("--config"), config); !s.ok()) return report_error(kCmd, s.error(), 2);
-  }
-  for (const char* key : {"source", "resolution", "frames", "out", "model", "label_every", "labels_out",
-                          "labels_out_every", "crf_every", "crf_iterations"}) {
-    std::string opt = std::string("--") + key;
-    for (char& ch : opt)
-      if (ch == '_') ch = '-';
-    if (!args->has(opt)) continue;
-    if (Status s = apply_config_value(key, args->get(opt), "option " + opt, config); !s.ok())
-      return report_error(kCmd, s.error(), 2);
-  }
-  if (args->has("--quiet")) config.progress = false;
-  if (args->has("--no-labels")) config.labels = false;
-  if (args->has("--crf-final")) config.crf_final = true;
+  auto config_or = config_from_args(*args);
+  if (!config_or.ok()) return report_error(kCmd, config_or.error(), 2);
+  RunConfig config = std::move(*config_or);
   if (!config.labels && (!config.labels_out.empty() || config.crf_every > 0 || config.crf_final))
     return report_error(kCmd, error(ErrorCode::kInvalidArgument,
                                     "--labels-out and the CRF need labels: drop --no-labels (or 'labels: false')"),
                         2);
   if (config.out_dir.empty())
     return report_error(kCmd, error(ErrorCode::kInvalidArgument, "missing --out DIR (or 'out:' in --config)"), 2);
+
+  // The memory plan before anything large exists (edgefusion plan prints it part by part).
+  if (Status s = check_memory_budget(config); !s.ok()) return report_error(kCmd, s.error(), 2);
 
   auto source_or = open_source(config.source);
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);

@@ -11,6 +11,7 @@ int cmd_eval(int argc, char** argv);
 int cmd_convert(int argc, char** argv);
 int cmd_segment(int argc, char** argv);
 int cmd_model(int argc, char** argv);
+int cmd_plan(int argc, char** argv);
 
 // The list of source URI forms, for help texts.
 const char* source_uri_help_text();

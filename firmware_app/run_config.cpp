@@ -1,54 +1,287 @@
 #include "run_config.h"
 
+// GCC 12 reports -Wdangling-pointer inside yaml-cpp 0.7's node/impl.h once its inline functions are
+// inlined here (a false positive on the library's own temporaries, fixed in later yaml-cpp).
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdangling-pointer"
+#endif
+#include <yaml-cpp/yaml.h>
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
+#pragma GCC diagnostic pop
+#endif
+
+#include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
-
-#include "args.h"
 
 namespace ef::app {
 
 namespace {
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string::npos) return "";
-  const auto e = s.find_last_not_of(" \t\r");
-  return s.substr(b, e - b + 1);
+
+// One option of the file. `path` is its key in the sectioned file ("crf.iterations"); `flat` the
+// older top-level name that still works ("crf_iterations"; empty when the path is already flat).
+// `doc` is the comment describe() writes: unit, range, default.
+struct OptionDoc {
+  const char* path;
+  const char* flat;
+  const char* doc;
+};
+
+// The one list of options: parsing, describe() and config_keys() all read it.
+constexpr OptionDoc kOptions[] = {
+    {"source", "", "frame source URI (edgefusion run --help lists them); default synthetic:"},
+    {"resolution", "", "working resolution for tracking and label fusion, WIDTHxHEIGHT pixels; default 320x240"},
+    {"frames", "", "frames to process, -1 = all the source has; default -1"},
+    {"out", "", "output folder, created if missing; no default: run needs it here or as --out"},
+    {"progress", "", "progress line on stderr; default true"},
+    {"map", "", "write map.ply at the end of the run; default true"},
+    {"mapping.surfel_capacity", "surfel_capacity",
+     "surfels in the map's pool, allocated at start-up (60 bytes each), 1..100000000; default 1000000"},
+    {"mapping.icp_weight", "icp_weight", "tracking: weight of the ICP term, >= 0; default 10"},
+    {"mapping.rgb_weight", "rgb_weight", "tracking: weight of the photometric term, >= 0; default 0.25"},
+    {"mapping.depth_cutoff_m", "depth_cutoff_m", "metres, > 0; depths beyond are ignored; default 8"},
+    {"labels.enabled", "labels", "CNN segmentation + Bayesian label fusion; false = geometry only; default true"},
+    {"labels.model", "model", ".efm segmentation model; default the shipped models/edgefusion-seg.efm"},
+    {"labels.every", "label_every", "frames between CNN label updates, 1..1000000; default 10 (the paper's)"},
+    {"labels.out", "labels_out", "folder for the map's labels rendered as class-id PNGs; default none"},
+    {"labels.out_every", "labels_out_every", "write every K-th frame's rendering, 1..1000000; default 10"},
+    {"labels.visibility", "label_visibility",
+     "fuse / render only surfels at the measured depth; false = every index-map surfel; default true"},
+    {"crf.every", "crf_every", "frames between dense CRF runs over the map, 0 = off; default 0 (paper: 500)"},
+    {"crf.final", "crf_final", "one dense CRF over the map at the end of the run; default false"},
+    {"crf.iterations", "crf_iterations", "mean-field iterations per CRF run, 1..100; default 10"},
+    {"memory.budget_mb", "memory_budget_mb",
+     "MB (10^6 bytes), 1..1000000: a run refuses to start when its memory plan is larger; default 256"},
+};
+
+constexpr const char* kSections[] = {"mapping", "labels", "crf", "memory"};
+
+bool is_section(const std::string& name) {
+  for (const char* s : kSections)
+    if (name == s) return true;
+  return false;
 }
 
-std::string unquote(const std::string& s) {
-  if (s.size() >= 2 && ((s.front() == '"' && s.back() == '"') || (s.front() == '\'' && s.back() == '\'')))
-    return s.substr(1, s.size() - 2);
+// The option a key names (section path or flat name); nullptr when none.
+const OptionDoc* find_option(const std::string& key) {
+  for (const OptionDoc& o : kOptions)
+    if (key == o.path || (o.flat[0] != '\0' && key == o.flat)) return &o;
+  return nullptr;
+}
+
+std::string known_keys_text() {
+  std::string s;
+  for (const OptionDoc& o : kOptions) s += (s.empty() ? "" : ", ") + std::string(o.path);
   return s;
 }
+
+Result<long long> parse_integer(const std::string& value, long long lo, long long hi) {
+  errno = 0;
+  char* end = nullptr;
+  const long long v = std::strtoll(value.c_str(), &end, 10);
+  if (value.empty() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
+    return error(ErrorCode::kInvalidArgument, "");
+  return v;
+}
+
+// The shortest decimal text that reads back (strtod) as exactly `v`.
+std::string number_text(double v) {
+  char buf[40];
+  for (int precision = 1; precision <= 17; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, v);
+    if (std::strtod(buf, nullptr) == v) break;
+  }
+  return buf;
+}
+// The same for a float read as strtod then narrowed (as apply_config_value does).
+std::string number_text(float v) {
+  char buf[40];
+  for (int precision = 1; precision <= 9; ++precision) {
+    std::snprintf(buf, sizeof buf, "%.*g", precision, static_cast<double>(v));
+    if (static_cast<float>(std::strtod(buf, nullptr)) == v) break;
+  }
+  return buf;
+}
+
+// A YAML double-quoted scalar holding `s` exactly.
+std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (const char ch : s) {
+    const auto u = static_cast<unsigned char>(ch);
+    if (ch == '"' || ch == '\\') {
+      q += '\\';
+      q += ch;
+    } else if (u < 0x20 || u == 0x7f) {
+      char esc[8];
+      std::snprintf(esc, sizeof esc, "\\x%02x", u);
+      q += esc;
+    } else {
+      q += ch;
+    }
+  }
+  return q + "\"";
+}
+
+const char* bool_text(bool b) { return b ? "true" : "false"; }
+
+// The value of option `path` in `c` as YAML text; empty for an empty string option.
+std::string value_text(const RunConfig& c, const std::string& path) {
+  if (path == "source") return quoted(c.source);
+  if (path == "resolution") return std::to_string(c.width) + "x" + std::to_string(c.height);
+  if (path == "frames") return std::to_string(c.max_frames);
+  if (path == "out") return c.out_dir.empty() ? "" : quoted(c.out_dir);
+  if (path == "progress") return bool_text(c.progress);
+  if (path == "map") return bool_text(c.write_map);
+  if (path == "mapping.surfel_capacity") return std::to_string(c.surfel_capacity);
+  if (path == "mapping.icp_weight") return number_text(c.icp_weight);
+  if (path == "mapping.rgb_weight") return number_text(c.rgb_weight);
+  if (path == "mapping.depth_cutoff_m") return number_text(c.depth_cutoff_m);
+  if (path == "labels.enabled") return bool_text(c.labels);
+  if (path == "labels.model") return c.model.empty() ? "" : quoted(c.model);
+  if (path == "labels.every") return std::to_string(c.label_every);
+  if (path == "labels.out") return c.labels_out.empty() ? "" : quoted(c.labels_out);
+  if (path == "labels.out_every") return std::to_string(c.labels_out_every);
+  if (path == "labels.visibility") return bool_text(c.label_visibility);
+  if (path == "crf.every") return std::to_string(c.crf_every);
+  if (path == "crf.final") return bool_text(c.crf_final);
+  if (path == "crf.iterations") return std::to_string(c.crf_iterations);
+  if (path == "memory.budget_mb") return std::to_string(c.memory_budget_mb);
+  return "";
+}
+
+// YAML reads `key: synthetic:` as a nested key and rejects it ("illegal map value"). A source URI
+// often ends in ':' (synthetic:, openni2:), so on a block `key: value` line whose value is a single
+// plain word ending in ':' the word is put in double quotes. Such a line is never valid YAML as
+// written, so no valid document changes meaning; line numbers are kept.
+std::string quote_trailing_colon_values(const std::string& text) {
+  std::string out;
+  out.reserve(text.size() + 16);
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t eol = text.find('\n', pos);
+    if (eol == std::string::npos) eol = text.size();
+    std::string line = text.substr(pos, eol - pos);
+    pos = eol + 1;
+    const bool had_newline = eol < text.size();
+
+    std::size_t i = line.find_first_not_of(" \t");
+    const std::size_t key_begin = i;
+    while (i < line.size() && (std::isalnum(static_cast<unsigned char>(line[i])) || line[i] == '_' ||
+                               line[i] == '.' || line[i] == '-'))
+      ++i;
+    const bool key_ok = key_begin != std::string::npos && i > key_begin && i + 1 < line.size() && line[i] == ':' &&
+                        (line[i + 1] == ' ' || line[i + 1] == '\t');
+    if (key_ok) {
+      const std::size_t v_begin = line.find_first_not_of(" \t", i + 1);
+      if (v_begin != std::string::npos && std::string("\"'{[&*!|>#%@`").find(line[v_begin]) == std::string::npos) {
+        std::size_t v_end = line.find_first_of(" \t\r", v_begin);
+        if (v_end == std::string::npos) v_end = line.size();
+        const std::size_t rest = line.find_first_not_of(" \t\r", v_end);
+        const bool only_comment_after = rest == std::string::npos || line[rest] == '#';
+        if (only_comment_after && line[v_end - 1] == ':')
+          line = line.substr(0, v_begin) + quoted(line.substr(v_begin, v_end - v_begin)) + line.substr(v_end);
+      }
+    }
+    out += line;
+    if (had_newline) out += '\n';
+  }
+  return out;
+}
+
+std::string node_kind(const YAML::Node& n) {
+  if (n.IsSequence()) return "a list";
+  if (n.IsMap()) return "a section of keys";
+  return "a value";
+}
+
+// Reads the options of one mapping node (the top level, or a section with `prefix`).
+class FileReader {
+ public:
+  FileReader(std::string name, RunConfig& config) : name_(std::move(name)), config_(config) {}
+
+  std::string where(const YAML::Mark& m) const {
+    return "configuration file '" + name_ + "' line " + std::to_string(m.line + 1);
+  }
+
+  Status read_map(const YAML::Node& map, const std::string& prefix) {
+    for (const auto& kv : map) {  // kv: a pair of Nodes by value (yaml-cpp's iterator yields proxies)
+      const YAML::Node k = kv.first;
+      const YAML::Node v = kv.second;
+      const std::string at = where(k.Mark());
+      if (!k.IsScalar())
+        return error(ErrorCode::kInvalidArgument, at + ": a key must be a plain name, got " + node_kind(k));
+      const std::string key = prefix.empty() ? k.Scalar() : prefix + "." + k.Scalar();
+      if (prefix.empty() && is_section(key) && (v.IsMap() || key != "labels")) {
+        // A section (`labels: true` is also the flat switch of labels.enabled).
+        if (!v.IsMap())
+          return error(ErrorCode::kInvalidArgument,
+                       at + ": key '" + key + "': expected a section of keys (for example " + key +
+                           ": {key: value} or indented lines below it), got " +
+                           (v.IsScalar() ? "'" + v.Scalar() + "'" : node_kind(v)));
+        EF_RETURN_IF_ERROR(read_map(v, key));
+        continue;
+      }
+      const OptionDoc* opt = find_option(key);
+      if (opt == nullptr)
+        return error(ErrorCode::kInvalidArgument,
+                     at + ": unknown key '" + key + "' (known: " + known_keys_text() +
+                         "; flat names such as surfel_capacity also work at the top level)");
+      if (v.IsMap() || v.IsSequence())
+        return error(ErrorCode::kInvalidArgument, at + ": key '" + key + "': expected one value, got " + node_kind(v));
+      const auto seen = seen_.find(opt->path);
+      if (seen != seen_.end())
+        return error(ErrorCode::kInvalidArgument, at + ": key '" + key + "' sets " + opt->path +
+                                                      ", which line " + std::to_string(seen->second) +
+                                                      " already set");
+      seen_[opt->path] = k.Mark().line + 1;
+      const std::string value = v.IsNull() ? "" : v.Scalar();
+      EF_RETURN_IF_ERROR(apply_config_value(key, value, at, config_));
+    }
+    return Status::success();
+  }
+
+ private:
+  std::string name_;
+  RunConfig& config_;
+  std::map<std::string, int> seen_;  // option path -> line that set it
+};
+
 }  // namespace
 
 std::string RunConfig::describe() const {
   std::ostringstream o;
-  o << "source: " << source << "        # source URI; default synthetic:\n"
-    << "resolution: " << width << "x" << height << "   # working resolution, pixels; default 320x240\n"
-    << "frames: " << max_frames << "           # frames to process, -1 = all; default -1\n"
-    << "out: " << out_dir << "          # output folder; no default\n"
-    << "progress: " << (progress ? "true" : "false") << "      # progress line on stderr; default true\n"
-    << "surfel_capacity: " << surfel_capacity << "  # surfels in the map's pool (fixed at start-up); default 1000000\n"
-    << "icp_weight: " << icp_weight << "          # tracking: weight of the ICP term, >= 0; default 10\n"
-    << "rgb_weight: " << rgb_weight << "           # tracking: weight of the photometric term, >= 0; default 0.25\n"
-    << "depth_cutoff_m: " << depth_cutoff_m << "       # metres; depths beyond are ignored; default 8\n"
-    << "map: " << (write_map ? "true" : "false") << "           # write map.ply; default true\n"
-    << "labels: " << (labels ? "true" : "false") << "        # CNN segmentation + label fusion; default true\n"
-    << "model: " << model << "          # .efm segmentation model; default the shipped model\n"
-    << "label_every: " << label_every << "      # frames between CNN label updates, >= 1; default 10\n"
-    << "labels_out: " << labels_out << "     # folder for rendered class-id PNGs; default none\n"
-    << "labels_out_every: " << labels_out_every << " # write every K-th frame's rendering, >= 1; default 10\n"
-    << "crf_every: " << crf_every << "         # frames between dense CRF runs, 0 = off; default 0\n"
-    << "crf_final: " << (crf_final ? "true" : "false") << "     # dense CRF once at the end; default false\n"
-    << "crf_iterations: " << crf_iterations << "   # mean-field iterations per CRF run, 1..100; default 10\n"
-    << "label_visibility: " << (label_visibility ? "true" : "false")
-    << " # labels only for surfels at the measured depth; default true\n";
+  o << "# edgefusion configuration (YAML): every option with its unit, range and default.\n"
+       "# Flat names (surfel_capacity, label_every, crf_iterations, ...) also work at the top level.\n";
+  std::string section;
+  for (const OptionDoc& opt : kOptions) {
+    const std::string path = opt.path;
+    const auto dot = path.find('.');
+    const std::string sec = dot == std::string::npos ? "" : path.substr(0, dot);
+    const std::string name = dot == std::string::npos ? path : path.substr(dot + 1);
+    if (sec != section) {
+      o << sec << ":\n";
+      section = sec;
+    }
+    const std::string value = value_text(*this, path);
+    std::string line = (sec.empty() ? "" : "  ") + std::string(value.empty() ? "# " : "") + name + ":" +
+                       (value.empty() ? "" : " " + value);
+    if (line.size() < 34) line.resize(34, ' ');
+    o << line << " # " << opt.doc << "\n";
+  }
   return o.str();
+}
+
+std::vector<std::string> config_keys() {
+  std::vector<std::string> keys;
+  for (const OptionDoc& o : kOptions) keys.emplace_back(o.path);
+  return keys;
 }
 
 Status apply_config_value(const std::string& key, const std::string& value, const std::string& where,
@@ -56,105 +289,142 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
   const auto bad = [&](const std::string& why) {
     return error(ErrorCode::kInvalidArgument, where + ": key '" + key + "': '" + value + "' " + why);
   };
-  if (key == "source") {
+  const OptionDoc* opt = find_option(key);
+  if (opt == nullptr)
+    return error(ErrorCode::kInvalidArgument, where + ": unknown key '" + key + "' (known: " + known_keys_text() + ")");
+  const std::string path = opt->path;
+
+  if (path == "source") {
     if (value.empty()) return bad("is empty (expected a source URI)");
     config.source = value;
-  } else if (key == "resolution") {
-    auto r = parse_resolution(value, where + ": key 'resolution'");
+  } else if (path == "resolution") {
+    auto r = parse_resolution(value, where + ": key '" + key + "'");
     if (!r.ok()) return r.take_error();
     config.width = r->first;
     config.height = r->second;
-  } else if (key == "frames") {
-    errno = 0;
-    char* end = nullptr;
-    const long long v = std::strtoll(value.c_str(), &end, 10);
-    if (value.empty() || *end != '\0' || errno == ERANGE || (v < 1 && v != -1))
-      return bad("is not a positive integer or -1");
-    config.max_frames = v;
-  } else if (key == "out") {
-    if (value.empty()) return bad("is empty (expected a folder)");
-    config.out_dir = value;
-  } else if (key == "progress" || key == "map" || key == "labels" || key == "crf_final" ||
-             key == "label_visibility") {
+  } else if (path == "frames") {
+    auto v = parse_integer(value, -1, INT64_MAX);
+    if (!v.ok() || *v == 0) return bad("is not a positive integer or -1");
+    config.max_frames = *v;
+  } else if (path == "out" || path == "labels.model" || path == "labels.out") {
+    if (value.empty()) return bad(path == "labels.model" ? "is empty (expected a .efm file)" : "is empty (expected a folder)");
+    (path == "out" ? config.out_dir : path == "labels.model" ? config.model : config.labels_out) = value;
+  } else if (path == "progress" || path == "map" || path == "labels.enabled" || path == "labels.visibility" ||
+             path == "crf.final") {
     bool v = false;
-    if (value == "true" || value == "yes" || value == "on") v = true;
-    else if (value == "false" || value == "no" || value == "off") v = false;
+    if (value == "true" || value == "True" || value == "TRUE" || value == "yes" || value == "on") v = true;
+    else if (value == "false" || value == "False" || value == "FALSE" || value == "no" || value == "off") v = false;
     else return bad("is not true or false");
-    if (key == "map") config.write_map = v;
-    else if (key == "progress") config.progress = v;
-    else if (key == "labels") config.labels = v;
-    else if (key == "label_visibility") config.label_visibility = v;
+    if (path == "progress") config.progress = v;
+    else if (path == "map") config.write_map = v;
+    else if (path == "labels.enabled") config.labels = v;
+    else if (path == "labels.visibility") config.label_visibility = v;
     else config.crf_final = v;
-  } else if (key == "model" || key == "labels_out") {
-    if (value.empty()) return bad(key == "model" ? "is empty (expected a .efm file)" : "is empty (expected a folder)");
-    (key == "model" ? config.model : config.labels_out) = value;
-  } else if (key == "label_every" || key == "labels_out_every" || key == "crf_every" || key == "crf_iterations") {
-    errno = 0;
-    char* end = nullptr;
-    const long long v = std::strtoll(value.c_str(), &end, 10);
-    const long long lo = key == "crf_every" ? 0 : 1;
-    const long long hi = key == "crf_iterations" ? 100 : 1'000'000;
-    if (value.empty() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
-      return bad("is not an integer in " + std::to_string(lo) + ".." + std::to_string(hi));
-    if (key == "label_every") config.label_every = static_cast<int>(v);
-    else if (key == "labels_out_every") config.labels_out_every = static_cast<int>(v);
-    else if (key == "crf_every") config.crf_every = static_cast<int>(v);
-    else config.crf_iterations = static_cast<int>(v);
-  } else if (key == "surfel_capacity") {
-    errno = 0;
-    char* end = nullptr;
-    const long long v = std::strtoll(value.c_str(), &end, 10);
-    if (value.empty() || *end != '\0' || errno == ERANGE || v < 1 || v > 100'000'000)
-      return bad("is not an integer in 1..100000000");
-    config.surfel_capacity = v;
-  } else if (key == "icp_weight" || key == "rgb_weight" || key == "depth_cutoff_m") {
+  } else if (path == "labels.every" || path == "labels.out_every" || path == "crf.every" || path == "crf.iterations") {
+    const long long lo = path == "crf.every" ? 0 : 1;
+    const long long hi = path == "crf.iterations" ? 100 : 1'000'000;
+    auto v = parse_integer(value, lo, hi);
+    if (!v.ok()) return bad("is not an integer in " + std::to_string(lo) + ".." + std::to_string(hi));
+    const int n = static_cast<int>(*v);
+    if (path == "labels.every") config.label_every = n;
+    else if (path == "labels.out_every") config.labels_out_every = n;
+    else if (path == "crf.every") config.crf_every = n;
+    else config.crf_iterations = n;
+  } else if (path == "mapping.surfel_capacity") {
+    auto v = parse_integer(value, 1, 100'000'000);
+    if (!v.ok()) return bad("is not an integer in 1..100000000");
+    config.surfel_capacity = *v;
+  } else if (path == "memory.budget_mb") {
+    auto v = parse_integer(value, 1, 1'000'000);
+    if (!v.ok()) return bad("is not an integer in 1..1000000 (MB)");
+    config.memory_budget_mb = *v;
+  } else {  // mapping.icp_weight, mapping.rgb_weight, mapping.depth_cutoff_m
     errno = 0;
     char* end = nullptr;
     const double v = std::strtod(value.c_str(), &end);
     if (value.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || v < 0)
       return bad("is not a finite number >= 0");
-    if (key == "depth_cutoff_m" && v <= 0) return bad("must be > 0 (metres)");
-    if (key == "icp_weight") config.icp_weight = v;
-    else if (key == "rgb_weight") config.rgb_weight = v;
+    if (path == "mapping.depth_cutoff_m" && v <= 0) return bad("must be > 0 (metres)");
+    if (path == "mapping.icp_weight") config.icp_weight = v;
+    else if (path == "mapping.rgb_weight") config.rgb_weight = v;
     else config.depth_cutoff_m = static_cast<float>(v);
-  } else {
-    return error(ErrorCode::kInvalidArgument,
-                 where + ": unknown key '" + key +
-                     "' (known: source, resolution, frames, out, progress, map, surfel_capacity, icp_weight, "
-                     "rgb_weight, depth_cutoff_m, labels, model, label_every, labels_out, labels_out_every, "
-                     "crf_every, crf_final, crf_iterations, label_visibility)");
   }
   return Status::success();
 }
 
-Status apply_config_file(const std::string& path, RunConfig& config) {
-  std::ifstream in(path);
-  if (!in) return error(ErrorCode::kNotFound, "configuration file '" + path + "': cannot open");
-  std::string line;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    const std::string where = "configuration file '" + path + "' line " + std::to_string(line_no);
-    // Strip a comment: '#' at the start or after whitespace (a URI may hold '#'-free text only).
-    for (std::size_t i = 0; i < line.size(); ++i) {
-      if (line[i] == '#' && (i == 0 || line[i - 1] == ' ' || line[i - 1] == '\t')) {
-        line.resize(i);
-        break;
-      }
-    }
-    const std::string t = trim(line);
-    if (t.empty() || t == "---") continue;
-    const auto colon = t.find(':');
-    // A value may itself hold ':' (a URI), so split at the first ": " or a trailing ':'.
-    const auto sep = t.find(": ");
-    const auto split = sep != std::string::npos ? sep : (colon == t.size() - 1 ? colon : std::string::npos);
-    if (split == std::string::npos || split == 0)
-      return error(ErrorCode::kInvalidArgument, where + ": expected 'key: value', got '" + t + "'");
-    const std::string key = trim(t.substr(0, split));
-    const std::string value = unquote(trim(t.substr(split + 1)));
-    EF_RETURN_IF_ERROR(apply_config_value(key, value, where, config));
+Status apply_config_text(const std::string& text, const std::string& name, RunConfig& config) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(quote_trailing_colon_values(text));
+  } catch (const YAML::Exception& e) {
+    return error(ErrorCode::kInvalidArgument, "configuration file '" + name + "' line " +
+                                                  std::to_string(e.mark.line + 1) + " column " +
+                                                  std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg);
   }
+  if (root.IsNull()) return Status::success();  // empty, or only comments
+  if (!root.IsMap())
+    return error(ErrorCode::kInvalidArgument, "configuration file '" + name + "' line " +
+                                                  std::to_string(root.Mark().line + 1) +
+                                                  ": expected 'key: value' lines, got " + node_kind(root));
+  // A copy, so that a file with an error leaves `config` as it was.
+  RunConfig updated = config;
+  FileReader reader(name, updated);
+  try {
+    EF_RETURN_IF_ERROR(reader.read_map(root, ""));
+  } catch (const YAML::Exception& e) {  // not expected once loaded; kept so no exception escapes
+    return error(ErrorCode::kInvalidArgument, "configuration file '" + name + "': " + e.what());
+  }
+  config = updated;
   return Status::success();
+}
+
+Status apply_config_file(const std::string& path, RunConfig& config) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return error(ErrorCode::kNotFound, "configuration file '" + path + "': cannot open");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return error(ErrorCode::kIoError, "configuration file '" + path + "': read error");
+  return apply_config_text(text.str(), path, config);
+}
+
+const std::vector<OptionSpec>& config_override_options() {
+  static const std::vector<OptionSpec> specs = {
+      {"--config", "FILE", "YAML configuration file (edgefusion plan --help prints every key)"},
+      {"--source", "URI", "frame source; default synthetic:"},
+      {"--resolution", "WxH", "working resolution for tracking and label fusion, pixels; default 320x240"},
+      {"--frames", "N", "process at most N frames; default all the source has"},
+      {"--out", "DIR", "output folder, created if missing"},
+      {"--quiet", "", "no progress line"},
+      {"--surfel-capacity", "N", "surfels in the map's pool (60 bytes each); default 1000000"},
+      {"--model", "FILE", "segmentation model (.efm); default the shipped model"},
+      {"--no-labels", "", "geometry only: no CNN, no label fusion, no class in map.ply"},
+      {"--label-every", "N", "segment and fuse labels every N-th frame; default 10 (the paper's)"},
+      {"--labels-out", "DIR", "write the map's labels rendered into every K-th frame as DIR/<frame>.png"},
+      {"--labels-out-every", "K", "with --labels-out: every K-th frame, counted from the first; default 10"},
+      {"--crf-every", "M", "dense CRF over the whole map every M frames; default 0 = off (paper: 500)"},
+      {"--crf-final", "", "dense CRF over the whole map once at the end, before map.ply is written"},
+      {"--crf-iterations", "N", "mean-field iterations per CRF run, 1..100; default 10"},
+      {"--memory-budget-mb", "MB", "refuse to start when the memory plan exceeds this, MB; default 256"},
+  };
+  return specs;
+}
+
+Result<RunConfig> config_from_args(const ParsedArgs& args) {
+  RunConfig config;
+  if (args.has("--config")) EF_RETURN_IF_ERROR(apply_config_file(args.get("--config"), config));
+  // Option --x-y overrides the flat key x_y.
+  for (const char* key : {"source", "resolution", "frames", "out", "surfel_capacity", "model", "label_every",
+                          "labels_out", "labels_out_every", "crf_every", "crf_iterations", "memory_budget_mb"}) {
+    std::string opt = std::string("--") + key;
+    for (char& ch : opt)
+      if (ch == '_') ch = '-';
+    if (!args.has(opt)) continue;
+    EF_RETURN_IF_ERROR(apply_config_value(key, args.get(opt), "option " + opt, config));
+  }
+  if (args.has("--quiet")) config.progress = false;
+  if (args.has("--no-labels")) config.labels = false;
+  if (args.has("--crf-final")) config.crf_final = true;
+  return config;
 }
 
 }  // namespace ef::app

@@ -1,14 +1,28 @@
-// Options of `edgefusion run`, from defaults, then an optional configuration file, then the
-// command line (each later one overrides the earlier).
+// Options of `edgefusion run` (and `edgefusion plan`), from defaults, then an optional YAML
+// configuration file, then the command line (each later one overrides the earlier).
 //
-// The configuration file is, for now, the flat subset of YAML: one `key: value` per line, '#'
-// comments, no nesting. Issue 7 replaces the reader with yaml-cpp and nested sections; the keys
-// below keep their names and units.
+// The file is YAML (read with yaml-cpp). Options sit at the top level or in sections; every
+// section key also has its older flat name, so both of these set the same option:
+//
+//   mapping: {surfel_capacity: 500000}        surfel_capacity: 500000
+//   labels: {every: 5}                        label_every: 5
+//
+// RunConfig::describe() prints every option with its unit and default as a complete file that reads
+// back to the same configuration (`edgefusion plan --help` shows it for the defaults).
+//
+// A URI such as `synthetic:` or `openni2:` ends in ':', which YAML reads as a nested key: the reader
+// quotes such a plain value on a `key: value` line itself (inside `{ }`, write it in quotes).
+//
+// Errors name the file, the line, the key (as written: `crf_iterations`, or the section path
+// `crf.iterations`) and the bad value. Unknown keys, a key given twice and YAML syntax errors are
+// errors too.
 #pragma once
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
+#include "args.h"
 #include "core/result.h"
 
 namespace ef::app {
@@ -18,37 +32,61 @@ struct RunConfig {
   int width = 320;                    // working resolution, pixels (tracking and label fusion)
   int height = 240;
   int64_t max_frames = -1;            // frames to process; -1 = all the source has
-  std::string out_dir;                // output folder; required
+  std::string out_dir;                // output folder; required by `run`
   bool progress = true;               // progress line on stderr
-  // Mapping (slam/surfel_slam.h). Defaults are ElasticFusion's / SemanticFusion's.
-  int64_t surfel_capacity = 1'000'000;  // surfels in the pool, allocated at start-up
+  bool write_map = true;              // write map.ply at the end of the run
+  // Mapping (slam/surfel_slam.h), section `mapping`. Defaults are ElasticFusion's / SemanticFusion's.
+  int64_t surfel_capacity = 1'000'000;  // surfels in the pool, allocated at start-up (1..100,000,000)
   double icp_weight = 10.0;             // tracking: relative weight of the ICP term (>= 0)
   double rgb_weight = 0.25;             // tracking: relative weight of the photometric term (>= 0)
-  float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres
-  bool write_map = true;                // write map.ply at the end of the run
-  // Semantics (SemanticFusion): the CNN every N-th frame, Bayesian label fusion into the surfels,
-  // an optional dense CRF, rendered label images.
+  float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres (> 0)
+  // Semantics (SemanticFusion), section `labels`: the CNN every N-th frame, Bayesian label fusion
+  // into the surfels, rendered label images.
   bool labels = true;                   // segment and fuse labels; false = geometry only
   std::string model;                    // .efm segmentation model; empty = the shipped model
   int label_every = 10;                 // CNN + Bayesian update every N frames (>= 1; paper: 10)
   std::string labels_out;               // folder for rendered class-id PNGs; empty = none
   int labels_out_every = 10;            // write the rendering of every K-th frame (>= 1)
+  bool label_visibility = true;         // fuse / render only surfels whose depth matches the measured
+                                        // depth (semantic/visibility.h); false = every index-map surfel
+  // Dense CRF over the map, section `crf`.
   int crf_every = 0;                    // dense CRF over the map every M frames; 0 = off (paper: 500)
   bool crf_final = false;               // one dense CRF over the map at the end of the run
   int crf_iterations = 10;              // mean-field iterations per CRF run (1..100; paper: 10)
-  bool label_visibility = true;         // fuse / render only surfels whose depth matches the measured
-                                        // depth (semantic/visibility.h); false = every index-map surfel
+  // Fixed memory, section `memory` (firmware_app/memory_plan.h).
+  int64_t memory_budget_mb = 256;       // a run refuses to start when its memory plan exceeds this,
+                                        // MB = 10^6 bytes (1..1,000,000)
 
-  // Multi-line "key: value  # unit, default" listing, as a configuration file would hold it.
+  // A complete YAML configuration file: every option in its section, with its unit, range and
+  // default as a comment. Reading it back (apply_config_file) gives this configuration again.
+  // Empty strings (out, model, labels out) are written as commented-out keys.
   std::string describe() const;
 };
 
-// Applies the keys of a configuration file to `config`. Errors name the file, the line, the key
-// and the bad value; unknown keys are errors.
+// Applies the keys of a YAML configuration file to `config`. Errors (kInvalidArgument; kNotFound
+// when the file cannot be opened) name the file, the line, the key path and the bad value.
 Status apply_config_file(const std::string& path, RunConfig& config);
 
-// Applies one key (as in the file) to `config`; errors name `where`, the key and the value.
+// The same for the text of a file; `name` stands for the file in messages.
+Status apply_config_text(const std::string& text, const std::string& name, RunConfig& config);
+
+// Applies one option to `config`. `key` is a section path ("crf.iterations") or a flat name
+// ("crf_iterations", "labels"); `value` the text as in the file. Errors name `where`, the key as
+// given and the value.
 Status apply_config_value(const std::string& key, const std::string& value, const std::string& where,
                           RunConfig& config);
+
+// Every option key, as a section path ("source", "mapping.surfel_capacity", ...), in file order.
+std::vector<std::string> config_keys();
+
+// Command-line options that override configuration keys, shared by `run` and `plan`: --config,
+// --source, --resolution, --frames, --out, --quiet, --model, --no-labels, --label-every,
+// --labels-out, --labels-out-every, --crf-every, --crf-final, --crf-iterations, --surfel-capacity,
+// --memory-budget-mb.
+const std::vector<OptionSpec>& config_override_options();
+
+// Builds the configuration of a command line parsed with config_override_options(): defaults, then
+// --config FILE, then every override. Errors name the file / option, the key and the value.
+Result<RunConfig> config_from_args(const ParsedArgs& args);
 
 }  // namespace ef::app

@@ -11,6 +11,19 @@
 
 namespace ef::app {
 
+semantic::DenseCrfOptions run_crf_options(const RunConfig& config) {
+  semantic::DenseCrfOptions co;
+  co.capacity = config.surfel_capacity;
+  co.iterations = config.crf_iterations;
+  // Lattice vertices per surfel of capacity. A SurfelSlam map needs more than the CRF's default
+  // (0.3, measured on noise-free sampled surfaces): on the synthetic seed-5001 loop (370k surfels
+  // after 300 frames) the spatial kernel's lattice had 1.13 vertices per surfel (noisy normals
+  // spread it) and the bilateral one 0.80. 1.25 leaves none out there; the cost is
+  // DenseCrf::kBytesPerVertex per vertex (docs/architecture.md, memory budget).
+  co.max_lattice_vertices = config.surfel_capacity * 5 / 4;
+  return co;
+}
+
 Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& config, const Intrinsics& working,
                                                            StageStats& stats) {
   std::unique_ptr<RunSemantics> s(new RunSemantics());
@@ -39,15 +52,7 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& conf
   s->fusion_ = std::make_unique<semantic::LabelFusion>(std::move(*fusion));
 
   if (config.crf_every > 0 || config.crf_final) {
-    semantic::DenseCrfOptions co;
-    co.capacity = config.surfel_capacity;
-    co.iterations = config.crf_iterations;
-    // Lattice vertices per surfel of capacity. A SurfelSlam map needs more than the CRF's default
-    // (0.3, measured on noise-free sampled surfaces): on the synthetic seed-5001 loop (370k surfels
-    // after 300 frames) the spatial kernel's lattice had 1.13 vertices per surfel (noisy normals
-    // spread it) and the bilateral one 0.80. 1.25 leaves none out there; the cost is
-    // DenseCrf::kBytesPerVertex per vertex (docs/architecture.md, memory budget).
-    co.max_lattice_vertices = config.surfel_capacity * 5 / 4;
+    const semantic::DenseCrfOptions co = run_crf_options(config);
     auto crf = semantic::DenseCrf::create(co);
     if (!crf.ok()) return crf.take_error();
     s->crf_ = std::make_unique<semantic::DenseCrf>(std::move(*crf));

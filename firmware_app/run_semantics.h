@@ -32,6 +32,10 @@
 
 namespace ef::app {
 
+// The dense CRF's options for a run of `config` (capacity = the pool's, the lattice sized for a
+// SurfelSlam map): shared by RunSemantics and the memory plan (memory_plan.h).
+semantic::DenseCrfOptions run_crf_options(const RunConfig& config);
+
 class RunSemantics {
  public:
   // Loads the model (config.model or the shipped one), sizes every buffer for `working` and a pool

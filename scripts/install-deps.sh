@@ -17,7 +17,7 @@ export DEBIAN_FRONTEND=noninteractive
 base_pkgs=(build-essential cmake ninja-build pkg-config git
            libeigen3-dev libopencv-core-dev libopencv-imgproc-dev
            libpng-dev libjpeg62-turbo-dev zlib1g-dev
-           libopenni2-dev libv4l-dev libgpiod-dev)
+           libopenni2-dev libv4l-dev libgpiod-dev libyaml-cpp-dev)
 test_pkgs=(libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev python3 python3-numpy python3-open3d
            libxnnpack-dev libpthreadpool-dev libcpuinfo-dev
            python3-torch python3-onnx python3-opencv)
@@ -25,7 +25,8 @@ models_pkgs=(python3 python3-numpy python3-torch python3-onnx python3-opencv)
 cross_pkgs=(g++-aarch64-linux-gnu qemu-user
             libpng-dev:arm64 libjpeg62-turbo-dev:arm64 zlib1g-dev:arm64
             libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64 libgtest-dev:arm64
-            libopenni2-dev:arm64 libv4l-dev:arm64 libgpiod-dev:arm64)
+            libopenni2-dev:arm64 libv4l-dev:arm64 libgpiod-dev:arm64
+            libyaml-cpp0.7:arm64)
 
 pkgs=("${base_pkgs[@]}")
 case "$mode" in

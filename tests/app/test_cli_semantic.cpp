@@ -124,7 +124,8 @@ TEST(CliSemantic, CrfEveryMFramesAndAtTheEnd) {
   const fs::path model = tiny_model(dir);
   const std::string uri = "synthetic:bedroom?frames=10&size=160x120";
   auto r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",
-           "--crf-every", "4", "--crf-final", "--crf-iterations", "3", "--out", (dir / "crf").string(), "--quiet"});
+           "--crf-every", "4", "--crf-final", "--crf-iterations", "3", "--surfel-capacity", "100000", "--out",
+           (dir / "crf").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string stats = read_file(dir / "crf" / "stats.json");
   EXPECT_EQ(stats_counter(stats, "crf_runs"), 3) << stats;  // frames 4 and 8, then the end (frame 10)
@@ -132,7 +133,7 @@ TEST(CliSemantic, CrfEveryMFramesAndAtTheEnd) {
   EXPECT_NE(r.err.find("dense CRF at frame 10"), std::string::npos) << r.err;
 
   r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",
-           "--out", (dir / "nocrf").string(), "--quiet"});
+           "--surfel-capacity", "100000", "--out", (dir / "nocrf").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   auto with = read_surfel_ply((dir / "crf" / "map.ply").string());
   auto without = read_surfel_ply((dir / "nocrf" / "map.ply").string());

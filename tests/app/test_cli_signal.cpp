@@ -42,7 +42,9 @@ void check_stops_cleanly(int sig, const char* name) {
   EXPECT_NE(stats.find("\"stopped_by_signal\":1"), std::string::npos) << stats;
   auto map = read_surfel_ply((dir / "map.ply").string());
   ASSERT_TRUE(map.ok()) << to_string(map.error());
-  if (n > 0) EXPECT_GT(map->size(), 100u);
+  if (n > 0) {
+    EXPECT_GT(map->size(), 100u);
+  }
 }
 
 TEST(CliSignal, SigtermMidRunWritesCompleteOutputs) { check_stops_cleanly(SIGTERM, "SIGTERM"); }

@@ -1,0 +1,295 @@
+#include "memory_plan.h"
+
+#include "run_semantics.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "core/arena.h"
+#include "core/image.h"
+#include "io/frame_source.h"
+#include "kernels/label_update.h"
+#include "model_paths.h"
+#include "run_semantics.h"
+#include "nn/conv_kernels.h"
+#include "nn/model_format.h"
+#include "nn/planner.h"
+#include "semantic/dense_crf.h"
+#include "semantic/label_store.h"
+#include "slam/model_prediction.h"
+#include "slam/preprocess.h"
+#include "slam/surfel_fusion.h"
+#include "slam/surfel_pool.h"
+#include "slam/tracker.h"
+
+namespace ef::app {
+
+namespace {
+
+using std::size_t;
+
+// Formulas below restate what each class's create() allocates, with the constants of its header.
+// Those marked "(from the .cpp)" use a number that only the class's .cpp knows; they belong in a
+// static bytes_for(...) of the class (see the report of issue 7).
+
+constexpr size_t kFrameBytesPerPixel = sizeof(Rgb8) + sizeof(float) + sizeof(uint8_t);  // colour, depth, labels
+constexpr size_t kLevelBytesPerPixel =  // depth, vertex, normal, intensity, two gradients
+    sizeof(float) + 2 * sizeof(Eigen::Vector3f) + 3 * sizeof(float);
+constexpr int kStageSamples = 4096;         // StageStats' default reservoir per stage (core/stage_stats.h)
+constexpr int kRunStages = 8;               // source, resample, preprocess, track, fuse, predict, slam_total, output
+constexpr int kLabelStages = 4;             // segment, label_fuse, label_render, crf (run_semantics)
+constexpr int kTrackerTilePixels = 2048;    // Tracker's row tile (from the .cpp: slam/tracker.cpp)
+constexpr int kLabelFusionIndexScale = 4;   // LabelFusion sizes its pair list for the largest index scale
+constexpr int kTrackerSo3MinWidth = 16, kTrackerSo3MinHeight = 12;  // (from the .cpp: slam/tracker.cpp)
+
+size_t round64(size_t n) { return (n + 63) / 64 * 64; }
+size_t px(int w, int h) { return static_cast<size_t>(w) * static_cast<size_t>(h); }
+std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
+
+struct Size2 {
+  int w, h;
+};
+Size2 level_size(int w, int h, int level) {
+  for (int i = 0; i < level; ++i) {
+    w /= 2;
+    h /= 2;
+  }
+  return {w, h};
+}
+
+// The source's frame size from its URI (size=WxH), else 640x480; `note` says which. A URI that does
+// not parse is left to open_source() to report (run exits with its error, as before the plan).
+Size2 source_size(const std::string& uri_text, std::string* note) {
+  auto uri = parse_source_uri(uri_text);
+  if (!uri.ok()) {
+    *note = " (assumed: the URI does not parse)";
+    return {640, 480};
+  }
+  const auto it = uri->query.find("size");
+  if (it == uri->query.end()) {
+    *note = " (assumed: no size= in the URI)";
+    return {640, 480};
+  }
+  auto wh = parse_resolution(it->second, "size");
+  if (!wh.ok()) {
+    *note = " (assumed: size= does not parse)";
+    return {640, 480};
+  }
+  note->clear();
+  return {wh->first, wh->second};
+}
+
+// Bytes of a loaded model's arrays (weights and their prepared copies, biases, tables).
+size_t model_bytes(const nn::Model& m) {
+  size_t b = 0;
+  for (const nn::LayerDesc& l : m.desc.layers)
+    b += l.weights.size() + l.bias.size() * sizeof(int32_t) + l.weight_scales.size() * sizeof(float);
+  for (const nn::PreparedLayer& p : m.prepared)
+    b += p.requant.size() * sizeof(nn::Requant) + p.packed.size() + p.bias.size() * sizeof(int32_t) +
+         p.exp_table.size() * sizeof(float);
+  b += m.desc.tensors.size() * sizeof(nn::TensorDesc) + m.desc.layers.size() * sizeof(nn::LayerDesc);
+  return b;
+}
+
+// What nn::Executor::pack_weights() allocates: one arena of 64-byte aligned blobs, one per
+// convolution, in the layout of the variant this CPU runs (nn/conv_kernels.h).
+size_t packed_weight_bytes(const nn::Model& m) {
+  const nn::ModelDesc& d = m.desc;
+  size_t total = Arena::kMaxAlign;
+  for (const nn::LayerDesc& l : d.layers) {
+    if (l.type != nn::LayerType::kConv2d && l.type != nn::LayerType::kDepthwiseConv2d &&
+        l.type != nn::LayerType::kPointwiseConv2d)
+      continue;
+    const auto& variant =
+        l.type == nn::LayerType::kDepthwiseConv2d ? nn::dwconv_i8_selected() : nn::conv_i8_selected();
+    const nn::TensorDesc& in = d.tensors[l.inputs[0]];
+    const nn::TensorDesc& out = d.tensors[l.output];
+    const nn::ConvShape shape{int(in.c), int(out.c), int(l.kernel_h), int(l.kernel_w), in.zero_point};
+    total += round64(variant.fn->packed_bytes(shape));
+  }
+  return total;
+}
+
+std::string mb_text(size_t bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f", static_cast<double>(bytes) / 1e6);
+  return buf;
+}
+
+}  // namespace
+
+size_t MemoryPlan::bytes_of(const std::string& name) const {
+  for (const MemoryPart& p : parts)
+    if (p.name == name) return p.bytes;
+  return 0;
+}
+
+std::string MemoryPlan::table() const {
+  size_t name_w = 5;
+  for (const MemoryPart& p : parts) name_w = std::max(name_w, p.name.size());
+  std::string s;
+  char line[256];
+  std::snprintf(line, sizeof line, "%-*s %12s %9s  %s\n", int(name_w), "part", "bytes", "MB", "how");
+  s += line;
+  for (const MemoryPart& p : parts) {
+    std::snprintf(line, sizeof line, "%-*s %12zu %9s  ", int(name_w), p.name.c_str(), p.bytes, mb_text(p.bytes).c_str());
+    s += line + p.detail + "\n";
+  }
+  std::snprintf(line, sizeof line, "%-*s %12zu %9s\n", int(name_w), "total", total_bytes, mb_text(total_bytes).c_str());
+  s += line;
+  std::snprintf(line, sizeof line, "%-*s %12zu %9s  memory.budget_mb\n", int(name_w), "budget", budget_bytes,
+                mb_text(budget_bytes).c_str());
+  s += line;
+  return s;
+}
+
+Result<MemoryPlan> plan_memory(const RunConfig& config) {
+  MemoryPlan plan;
+  const auto add = [&plan](std::string name, size_t bytes, std::string detail) {
+    plan.parts.push_back(MemoryPart{std::move(name), bytes, std::move(detail)});
+  };
+  const int w = config.width, h = config.height;
+  const auto cap = static_cast<size_t>(config.surfel_capacity);
+
+  // Frames (firmware_app/cmd_run.cpp): the source's and the working one, colour + depth + labels.
+  std::string note;
+  const Size2 src = source_size(config.source, &note);
+  add("source frame", px(src.w, src.h) * kFrameBytesPerPixel,
+      size_text(src.w, src.h) + note + " x 8 bytes (colour, depth, labels)");
+  add("working frame", px(w, h) * kFrameBytesPerPixel, size_text(w, h) + " x 8 bytes");
+
+  // SLAM (slam/surfel_slam.h) with the options `run` gives it.
+  slam::PreprocessOptions pre;
+  slam::PredictionOptions pred;
+  slam::FusionOptions fus;
+  slam::TrackerOptions trk;
+  const int levels = pre.levels;
+  {  // slam/preprocess.h: the pyramid, the cut depth, the padded bilateral input, its weights and rows
+    size_t b = 0;
+    for (int l = 0; l < levels; ++l) {
+      const Size2 s = level_size(w, h, l);
+      b += px(s.w, s.h) * kLevelBytesPerPixel;
+    }
+    const int r = pre.bilateral_radius_px;
+    b += px(w, h) * sizeof(float) + px(w + 2 * r, h + 2 * r) * sizeof(float) + px(2 * r + 1, 2 * r + 1) * sizeof(float) +
+         2 * static_cast<size_t>(w) * sizeof(float);
+    add("slam preprocessing", b, std::to_string(levels) + " levels x 40 bytes per pixel + filter buffers");
+  }
+  {  // slam/tracker.h: row tiles (2 x 8 floats per pixel), the SO(3) level's images and rays
+    const Size2 extra = level_size(w, h, levels);
+    const bool extra_ok = extra.w >= kTrackerSo3MinWidth && extra.h >= kTrackerSo3MinHeight;
+    const int so3_level = trk.so3_level >= 0 ? trk.so3_level : extra_ok ? levels : levels - 1;
+    size_t tile = 0;
+    for (int l = 0; l <= levels; ++l) {
+      if (l == levels && so3_level != levels) continue;
+      const Size2 s = level_size(w, h, l);
+      const int rows = s.w >= kTrackerTilePixels ? 1 : kTrackerTilePixels / std::max(s.w, 1);
+      tile = std::max(tile, static_cast<size_t>(std::min(rows, s.h)) * static_cast<size_t>(s.w));
+    }
+    size_t b = 2 * 8 * tile * sizeof(float);
+    if (so3_level == levels) b += 4 * px(extra.w, extra.h) * sizeof(float);
+    const Size2 ks = level_size(w, h, so3_level);
+    b += 3 * px(ks.w, ks.h) * sizeof(float);
+    add("slam tracker", b, "row tiles, SO(3) level " + std::to_string(so3_level) + " images and rays");
+  }
+  {  // slam/surfel_pool.cpp: one block of 64-byte aligned columns
+    const size_t b = 8 * round64(cap * sizeof(float)) + 3 * round64(cap * sizeof(uint32_t)) +
+                     round64(cap * slam::SurfelPool::kLabelBytesPerSurfel);
+    add("surfel pool", b,
+        std::to_string(cap) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) +
+            " bytes (label store " + std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");
+  }
+  {  // slam/model_prediction.h: predicted pyramid, index map (id + depth), winners, colours, rays
+    const int s = pred.index_map_scale;
+    size_t b = 0;
+    for (int l = 0; l < levels; ++l) {
+      const Size2 z = level_size(w, h, l);
+      b += px(z.w, z.h) * kLevelBytesPerPixel;
+    }
+    b += px(w * s, h * s) * (sizeof(int32_t) + sizeof(float));
+    b += px(w, h) * (sizeof(int32_t) + sizeof(Rgb8)) + (2 * static_cast<size_t>(w) + static_cast<size_t>(h)) * sizeof(float);
+    add("model prediction", b, std::to_string(s) + "x index map " + size_text(w * s, h * s) + " x 8 bytes + " +
+                                   std::to_string(levels) + " predicted levels");
+  }
+  {  // slam/surfel_fusion.h: 4 bytes per surfel, per seen entry and 2 x per working pixel
+    const size_t index_px = px(w, h) * static_cast<size_t>(pred.index_map_scale * pred.index_map_scale);
+    const size_t seen = std::min(cap, index_px) + static_cast<size_t>(fus.lifetime_sweep_per_frame);
+    add("surfel fusion scratch", (cap + seen + 2 * px(w, h)) * 4,
+        "4 bytes x (capacity + min(capacity, index cells) + sweep + 2 x working pixels)");
+  }
+  const int stages = kRunStages + (config.labels ? kLabelStages : 0);
+  add("stage statistics", static_cast<size_t>(stages + 1) * kStageSamples * sizeof(double),
+      std::to_string(stages) + " stages + 1 scratch x " + std::to_string(kStageSamples) + " samples x 8 bytes");
+
+  if (config.labels) {
+    const bool default_model = config.model.empty();
+    const std::string model_path = default_model ? default_model_path() : config.model;
+    EF_RETURN_IF_ERROR(check_model_file(model_path, default_model));
+    EF_ASSIGN_OR_RETURN(nn::Model model, nn::load_model(model_path));
+    const nn::ModelDesc& d = model.desc;
+    const nn::TensorDesc& in = d.tensors[d.input_tensor];
+    const nn::TensorDesc& out = d.tensors[d.output_tensor];
+    const int in_w = int(in.w), in_h = int(in.h), out_w = int(out.w), out_h = int(out.h), classes = int(out.c);
+    add("cnn model", model_bytes(model), "weights and prepared copies of " + model_path);
+    EF_ASSIGN_OR_RETURN(nn::MemoryPlan arena, nn::plan_memory(model));
+    add("cnn arena", std::max<size_t>(arena.total_bytes, Arena::kMaxAlign),
+        "activations, liveness-planned (nn/planner.h), " + std::to_string(d.layers.size()) + " layers");
+    add("cnn packed weights", packed_weight_bytes(model), "convolution weights in this CPU's kernel layout");
+    // semantic/segmenter.h buffer_bytes(): resampled frame (colour + depth), depth-only frame, float
+    // input (4 channels), probabilities, class ids.
+    const size_t in_px = px(in_w, in_h), out_px = px(out_w, out_h);
+    add("segmenter buffers",
+        in_px * (sizeof(Rgb8) + 2 * sizeof(float)) + in_px * 4 * sizeof(float) +
+            out_px * static_cast<size_t>(classes) * sizeof(float) + out_px,
+        "input " + size_text(in_w, in_h) + ", output " + size_text(out_w, out_h) + " x " + std::to_string(classes) +
+            " classes");
+    // semantic/label_fusion.h: observations (16 bytes per CNN pixel), column table, pair list.
+    add("label fusion",
+        out_px * semantic::kLabelBytes + static_cast<size_t>(w) * kLabelFusionIndexScale * sizeof(int32_t) +
+            px(w, h) * kLabelFusionIndexScale * kLabelFusionIndexScale * sizeof(kernels::LabelUpdatePair),
+        "16 bytes per CNN pixel + 16 pairs x 8 bytes per working pixel");
+    add("label images", 2 * px(w, h), "CNN fallback + rendering, " + size_text(w, h) + " x 1 byte");
+    add("map.ply class columns", cap * (sizeof(uint8_t) + sizeof(float)), "5 bytes (class id, probability) x capacity");
+    if (config.crf_every > 0 || config.crf_final) {
+      // semantic/dense_crf.h: capacity x kBytesPerSurfel + lattice vertices x kBytesPerVertex, where
+      // the vertex part is two lattices (PermutohedralLattice::create: points, vertices and one spare
+      // value row) and two splat buffers of PermutohedralLattice::scratch_floats() (the hash table).
+      using semantic::PermutohedralLattice;
+      const semantic::DenseCrfOptions co = run_crf_options(config);
+      const int64_t vertices = co.lattice_vertices();
+      const size_t lattice = cap * PermutohedralLattice::kBytesPerPoint +
+                             static_cast<size_t>(vertices) * PermutohedralLattice::kBytesPerVertex +
+                             PermutohedralLattice::kValues * sizeof(float);
+      const size_t scratch = PermutohedralLattice::scratch_floats(vertices) * sizeof(float);
+      const size_t per_surfel = PermutohedralLattice::kValues * sizeof(uint16_t) + sizeof(uint32_t);  // Q, order
+      add("dense crf", 2 * lattice + 2 * scratch + cap * per_surfel,
+          std::to_string(cap) + " surfels x " + std::to_string(semantic::DenseCrf::kBytesPerSurfel) + " + " +
+              std::to_string(vertices) + " lattice vertices x about " +
+              std::to_string(semantic::DenseCrf::kBytesPerVertex) + " (semantic/dense_crf.h)");
+    }
+  }
+
+  for (const MemoryPart& p : plan.parts) plan.total_bytes += p.bytes;
+  plan.budget_bytes = static_cast<size_t>(config.memory_budget_mb) * 1'000'000;
+  return plan;
+}
+
+Status check_memory_budget(const RunConfig& config) {
+  EF_ASSIGN_OR_RETURN(MemoryPlan plan, plan_memory(config));
+  if (plan.within_budget()) return Status::success();
+  std::vector<MemoryPart> largest = plan.parts;
+  std::sort(largest.begin(), largest.end(), [](const MemoryPart& a, const MemoryPart& b) { return a.bytes > b.bytes; });
+  std::string parts;
+  for (size_t i = 0; i < largest.size() && i < 3; ++i)
+    parts += (i ? ", " : "") + largest[i].name + " " + mb_text(largest[i].bytes) + " MB";
+  return error(ErrorCode::kResourceExhausted,
+               "memory plan: " + mb_text(plan.total_bytes) + " MB exceeds the budget of " +
+                   std::to_string(config.memory_budget_mb) + " MB (memory.budget_mb); largest parts: " + parts +
+                   ". Lower mapping.surfel_capacity (or the resolution, or turn the CRF off) or raise "
+                   "memory.budget_mb; `edgefusion plan` with the same options lists every part");
+}
+
+}  // namespace ef::app
