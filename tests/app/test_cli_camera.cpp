@@ -1,0 +1,40 @@
+// A live camera through the whole of `edgefusion run`: OpenNI2's software Dummy device (Debian's
+// libopenni2-0 ships it) streams into the mapper, which writes complete outputs. The Dummy shows a
+// test pattern, so tracking may be lost; what is checked is the plumbing: one pose line per
+// delivered frame, the statistics and the map.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "app/cli_test_util.h"
+#include "io/trajectory_io.h"
+#include "platform/camera_test_util.h"
+#include "test_support.h"
+
+namespace ef::app {
+namespace {
+
+TEST(CliCamera, OpenNi2DummyStreamsThroughTheMapper) {
+#ifndef EF_HAVE_OPENNI2
+  GTEST_SKIP() << "built without OpenNI2 (libopenni2-dev missing)";
+#else
+  if (!test::openni2_dummy_driver_installed())
+    GTEST_SKIP() << "OpenNI2's Dummy driver is not installed in " << test::openni2_driver_dir();
+  const auto dir = test::scratch_dir("cli-camera");
+  const auto r = cli({"run", "--source", "openni2:Dummy", "--frames", "6", "--no-labels", "--out", dir.string(),
+                      "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto traj = read_tum_trajectory((dir / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok()) << to_string(traj.error());
+  EXPECT_EQ(traj->poses.size(), 6u);
+  for (std::size_t i = 1; i < traj->poses.size(); ++i)
+    EXPECT_GT(traj->poses[i].timestamp, traj->poses[i - 1].timestamp) << i;  // the device's clock
+  const std::string stats = read_file(dir / "stats.json");
+  EXPECT_NE(stats.find("\"frames\":6,"), std::string::npos) << stats;
+  EXPECT_NE(stats.find("\"camera_lost\":0"), std::string::npos) << stats;
+  EXPECT_TRUE(std::filesystem::exists(dir / "map.ply"));
+#endif
+}
+
+}  // namespace
+}  // namespace ef::app
