@@ -16,6 +16,7 @@
 #include "io/stats_json.h"
 #include "io/trajectory_io.h"
 #include "memory_plan.h"
+#include "platform/devices/status_panel.h"
 #include "progress.h"
 #include "run_config.h"
 #include "run_semantics.h"
@@ -55,7 +56,7 @@ std::string run_help() {
 // Counters written to stats.json, registered once at start-up.
 struct RunCounters {
   int frames, frames_with_pose, frames_with_labels, lost_frames, fused_frames, surfels_created, surfels_removed,
-      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped, stopped_by_signal;
+      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped, stopped_by_signal, stopped_by_button;
 };
 
 // Stage ids of the SLAM steps in StageStats.
@@ -95,6 +96,28 @@ int cmd_run(int argc, char** argv) {
 
   // The memory plan before anything large exists (edgefusion plan prints it part by part).
   if (Status s = check_memory_budget(config); !s.ok()) return report_error(kCmd, s.error(), 2);
+
+  // The front panel, if configured: a missing chip is an error (exit 2) unless gpio.optional.
+  auto gpio_or = open_gpio_lines(config.gpio);
+  if (!gpio_or.ok()) return report_error(kCmd, gpio_or.error(), 2);
+  GpioLines gpio = std::move(*gpio_or);
+  if (!gpio.warnings.empty()) std::fprintf(stderr, "%s: warning: %s\n", kCmd, gpio.warnings.c_str());
+  StatusLed led(gpio.led.get());
+  StartStopButton button(gpio.button.get(), config.gpio.debounce_ms, /*initially_running=*/true);
+  const auto panel_clock_start = std::chrono::steady_clock::now();
+  const auto panel_now_ms = [&] {
+    return static_cast<int64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                    std::chrono::steady_clock::now() - panel_clock_start)
+                                    .count());
+  };
+  // A failing LED or button line is reported once and then left alone: the map matters more.
+  bool panel_failed = false;
+  const auto panel_status = [&](const Status& s) {
+    if (!s.ok() && !panel_failed) {
+      std::fprintf(stderr, "%s: warning: front panel: %s\n", kCmd, s.error().message.c_str());
+      panel_failed = true;
+    }
+  };
 
   auto source_or = open_source(config.source);
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
@@ -140,7 +163,8 @@ int cmd_run(int argc, char** argv) {
                       stats.add_counter("fused_frames"),    stats.add_counter("surfels_created"),
                       stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
                       stats.add_counter("surfels_refused"), stats.add_counter("camera_lost"),
-                      stats.add_counter("corrupt_frames_dropped"), stats.add_counter("stopped_by_signal")};
+                      stats.add_counter("corrupt_frames_dropped"), stats.add_counter("stopped_by_signal"),
+                      stats.add_counter("stopped_by_button")};
 
   // SIGINT / SIGTERM from here on: finish the frame in hand, write everything below and exit 0.
   StopSignalScope stop_signal;
@@ -164,7 +188,18 @@ int cmd_run(int argc, char** argv) {
   int exit_code = 0;
   slam::SlamFrameResult result;
   char line[96];
+  led.set_pattern(LedPattern::kTracking, panel_now_ms());
   while (config.max_frames < 0 || frames < config.max_frames) {
+    if (gpio.button != nullptr && !panel_failed) {
+      auto pressed = button.poll(panel_now_ms());
+      panel_status(pressed.ok() ? Status::success() : Status(pressed.error()));
+      if (pressed.ok() && *pressed && !button.running()) {
+        std::fprintf(stderr, "\n%s: stop button pressed after %lld frames: stopping, writing the outputs\n", kCmd,
+                     static_cast<long long>(frames));
+        stats.increment(c.stopped_by_button);
+        break;
+      }
+    }
     if (stop_signal.stop_requested()) {
       std::fprintf(stderr, "\n%s: %s received after %lld frames: stopping, writing the outputs\n", kCmd,
                    stop_signal.signal_number() == SIGINT ? "SIGINT" : "SIGTERM", static_cast<long long>(frames));
@@ -237,11 +272,16 @@ int cmd_run(int argc, char** argv) {
     stats.increment(c.lost_frames, result.lost ? 1 : 0);
     stats.increment(c.fused_frames, result.fused ? 1 : 0);
     ++frames;
+    led.set_pattern(result.lost ? LedPattern::kLost : LedPattern::kTracking, panel_now_ms());
+    if (!panel_failed) panel_status(led.tick(panel_now_ms()));
     std::snprintf(line, sizeof line, "%s, %lld surfels", result.lost ? "LOST" : "tracking",
                   static_cast<long long>(slam.pool().size()));
     progress.update(frames, line);
   }
   progress.finish(frames);
+  // Writing the outputs: the slow blink until they are on disk, then off.
+  led.set_pattern(LedPattern::kLogging, panel_now_ms());
+  if (!panel_failed) panel_status(led.tick(panel_now_ms()));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   const slam::SurfelPoolCounters& pc = slam.pool().counters();
@@ -286,6 +326,8 @@ int cmd_run(int argc, char** argv) {
     exit_code = 1;
   }
 
+  led.set_pattern(LedPattern::kOff, panel_now_ms());
+  if (!panel_failed) panel_status(led.tick(panel_now_ms()));
   std::printf("frames %lld in %.2f s (%.1f fps), lost %lld, surfels %lld\n", static_cast<long long>(frames),
               seconds, seconds > 0 ? static_cast<double>(frames) / seconds : 0.0,
               static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.pool().size()));

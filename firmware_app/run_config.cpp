@@ -59,9 +59,17 @@ constexpr OptionDoc kOptions[] = {
     {"crf.iterations", "crf_iterations", "mean-field iterations per CRF run, 1..100; default 10"},
     {"memory.budget_mb", "memory_budget_mb",
      "MB (10^6 bytes), 1..1000000: a run refuses to start when its memory plan is larger; default 256"},
+    {"gpio.led_chip", "", "status LED's GPIO chip (name, /dev path, number or label); default none (no LED)"},
+    {"gpio.led_line", "", "status LED's line offset on that chip, 0..1023; default 0"},
+    {"gpio.led_active_low", "", "the LED lights when its pin is driven low; default false"},
+    {"gpio.button_chip", "", "start/stop button's GPIO chip; default none (no button)"},
+    {"gpio.button_line", "", "start/stop button's line offset, 0..1023; default 0"},
+    {"gpio.button_active_low", "", "the button pulls its pin low when pressed (wired to ground); default true"},
+    {"gpio.debounce_ms", "", "a button level must hold this long to count, milliseconds, 1..1000; default 30"},
+    {"gpio.optional", "", "a missing chip or line is a warning and the run goes on without it; default false"},
 };
 
-constexpr const char* kSections[] = {"mapping", "labels", "crf", "memory"};
+constexpr const char* kSections[] = {"mapping", "labels", "crf", "memory", "gpio"};
 
 bool is_section(const std::string& name) {
   for (const char* s : kSections)
@@ -153,6 +161,14 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "crf.final") return bool_text(c.crf_final);
   if (path == "crf.iterations") return std::to_string(c.crf_iterations);
   if (path == "memory.budget_mb") return std::to_string(c.memory_budget_mb);
+  if (path == "gpio.led_chip") return c.gpio.led.chip.empty() ? "" : quoted(c.gpio.led.chip);
+  if (path == "gpio.led_line") return std::to_string(c.gpio.led.offset);
+  if (path == "gpio.led_active_low") return bool_text(c.gpio.led.active_low);
+  if (path == "gpio.button_chip") return c.gpio.button.chip.empty() ? "" : quoted(c.gpio.button.chip);
+  if (path == "gpio.button_line") return std::to_string(c.gpio.button.offset);
+  if (path == "gpio.button_active_low") return bool_text(c.gpio.button.active_low);
+  if (path == "gpio.debounce_ms") return std::to_string(c.gpio.debounce_ms);
+  if (path == "gpio.optional") return bool_text(c.gpio.optional);
   return "";
 }
 
@@ -309,8 +325,19 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
   } else if (path == "out" || path == "labels.model" || path == "labels.out") {
     if (value.empty()) return bad(path == "labels.model" ? "is empty (expected a .efm file)" : "is empty (expected a folder)");
     (path == "out" ? config.out_dir : path == "labels.model" ? config.model : config.labels_out) = value;
+  } else if (path == "gpio.led_chip" || path == "gpio.button_chip") {
+    if (value.empty()) return bad("is empty (expected a chip name, /dev path, number or label)");
+    (path == "gpio.led_chip" ? config.gpio.led.chip : config.gpio.button.chip) = value;
+  } else if (path == "gpio.led_line" || path == "gpio.button_line" || path == "gpio.debounce_ms") {
+    const bool lines = path != "gpio.debounce_ms";
+    auto v = parse_integer(value, lines ? 0 : 1, lines ? 1023 : 1000);
+    if (!v.ok()) return bad(lines ? "is not a line offset in 0..1023" : "is not an integer in 1..1000 (ms)");
+    if (path == "gpio.led_line") config.gpio.led.offset = static_cast<unsigned>(*v);
+    else if (path == "gpio.button_line") config.gpio.button.offset = static_cast<unsigned>(*v);
+    else config.gpio.debounce_ms = static_cast<int>(*v);
   } else if (path == "progress" || path == "map" || path == "labels.enabled" || path == "labels.visibility" ||
-             path == "crf.final") {
+             path == "crf.final" || path == "gpio.led_active_low" || path == "gpio.button_active_low" ||
+             path == "gpio.optional") {
     bool v = false;
     if (value == "true" || value == "True" || value == "TRUE" || value == "yes" || value == "on") v = true;
     else if (value == "false" || value == "False" || value == "FALSE" || value == "no" || value == "off") v = false;
@@ -319,6 +346,9 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     else if (path == "map") config.write_map = v;
     else if (path == "labels.enabled") config.labels = v;
     else if (path == "labels.visibility") config.label_visibility = v;
+    else if (path == "gpio.led_active_low") config.gpio.led.active_low = v;
+    else if (path == "gpio.button_active_low") config.gpio.button.active_low = v;
+    else if (path == "gpio.optional") config.gpio.optional = v;
     else config.crf_final = v;
   } else if (path == "labels.every" || path == "labels.out_every" || path == "crf.every" || path == "crf.iterations") {
     const long long lo = path == "crf.every" ? 0 : 1;

@@ -24,8 +24,16 @@
 
 #include "args.h"
 #include "core/result.h"
+#include "platform/devices/gpio.h"
 
 namespace ef::app {
+
+// GpioOptions as a run starts from: no lines, the button active low (a push button to ground).
+inline GpioOptions default_gpio_options() {
+  GpioOptions g;
+  g.button.active_low = true;
+  return g;
+}
 
 struct RunConfig {
   std::string source = "synthetic:";  // source URI (see `edgefusion --help`)
@@ -54,6 +62,9 @@ struct RunConfig {
   bool crf_final = false;               // one dense CRF over the map at the end of the run
   int crf_iterations = 10;              // mean-field iterations per CRF run (1..100; paper: 10)
   // Fixed memory, section `memory` (firmware_app/memory_plan.h).
+  // Front panel (platform/devices/gpio.h): status LED and start/stop button; none by default. The
+  // button is wired to ground (active low) unless the file says otherwise.
+  GpioOptions gpio = default_gpio_options();
   int64_t memory_budget_mb = 256;       // a run refuses to start when its memory plan exceeds this,
                                         // MB = 10^6 bytes (1..1,000,000)
 

@@ -1,9 +1,10 @@
 // A live camera through the whole of `edgefusion run`: OpenNI2's software Dummy device (Debian's
 // libopenni2-0 ships it) streams into the mapper, which writes complete outputs. The Dummy shows a
 // test pattern, so tracking may be lost; what is checked is the plumbing: one pose line per
-// delivered frame, the statistics and the map.
+// delivered frame, the statistics and the map. Also the front panel's configuration errors.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <string>
 
 #include "app/cli_test_util.h"
@@ -34,6 +35,26 @@ TEST(CliCamera, OpenNi2DummyStreamsThroughTheMapper) {
   EXPECT_NE(stats.find("\"camera_lost\":0"), std::string::npos) << stats;
   EXPECT_TRUE(std::filesystem::exists(dir / "map.ply"));
 #endif
+}
+
+// The front panel: a configured chip that does not exist stops the run before it starts, naming
+// the chip; marked optional, it is a warning and the run goes on without the LED.
+TEST(CliCamera, MissingGpioChipIsAnErrorOrAWarning) {
+  const auto dir = test::scratch_dir("cli-gpio");
+  const auto cfg = dir / "run.yaml";
+  std::ofstream(cfg) << "source: synthetic:?frames=2&size=160x120\nresolution: 160x120\nlabels: false\n"
+                        "gpio:\n  led_chip: gpiochip-absent-7\n  led_line: 3\n";
+  auto r = cli({"run", "--config", cfg.string(), "--out", (dir / "a").string(), "--quiet"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("gpiochip-absent-7"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "a" / "trajectory.txt"));
+
+  std::ofstream(cfg, std::ios::app) << "  optional: true\n";
+  r = cli({"run", "--config", cfg.string(), "--out", (dir / "b").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("gpiochip-absent-7"), std::string::npos) << r.err;
+  EXPECT_NE(read_file(dir / "b" / "stats.json").find("\"frames\":2,"), std::string::npos);
 }
 
 }  // namespace

@@ -58,6 +58,43 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.crf_final, b.crf_final);
   EXPECT_EQ(a.crf_iterations, b.crf_iterations);
   EXPECT_EQ(a.memory_budget_mb, b.memory_budget_mb);
+  EXPECT_EQ(a.gpio.led.chip, b.gpio.led.chip);
+  EXPECT_EQ(a.gpio.led.offset, b.gpio.led.offset);
+  EXPECT_EQ(a.gpio.led.active_low, b.gpio.led.active_low);
+  EXPECT_EQ(a.gpio.button.chip, b.gpio.button.chip);
+  EXPECT_EQ(a.gpio.button.offset, b.gpio.button.offset);
+  EXPECT_EQ(a.gpio.button.active_low, b.gpio.button.active_low);
+  EXPECT_EQ(a.gpio.debounce_ms, b.gpio.debounce_ms);
+  EXPECT_EQ(a.gpio.optional, b.gpio.optional);
+}
+
+TEST(ConfigYaml, GpioSectionAndItsErrors) {
+  auto c = read_text(
+      "gpio:\n"
+      "  led_chip: gpiochip0\n"
+      "  led_line: 17\n"
+      "  button_chip: /dev/gpiochip1\n"
+      "  button_line: 4\n"
+      "  button_active_low: false\n"
+      "  debounce_ms: 50\n"
+      "  optional: true\n");
+  ASSERT_TRUE(c.ok()) << to_string(c.error());
+  EXPECT_EQ(c->gpio.led.chip, "gpiochip0");
+  EXPECT_EQ(c->gpio.led.offset, 17u);
+  EXPECT_FALSE(c->gpio.led.active_low);
+  EXPECT_EQ(c->gpio.button.chip, "/dev/gpiochip1");
+  EXPECT_EQ(c->gpio.button.offset, 4u);
+  EXPECT_FALSE(c->gpio.button.active_low);
+  EXPECT_EQ(c->gpio.debounce_ms, 50);
+  EXPECT_TRUE(c->gpio.optional);
+  RunConfig defaults;
+  EXPECT_TRUE(defaults.gpio.led.chip.empty());
+  EXPECT_TRUE(defaults.gpio.button.active_low);  // a push button to ground
+
+  auto bad = read_text("gpio:\n  led_line: 5000\n");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(to_string(bad.error()).find("gpio.led_line"), std::string::npos) << to_string(bad.error());
+  EXPECT_NE(to_string(bad.error()).find("5000"), std::string::npos) << to_string(bad.error());
 }
 
 TEST(ConfigYaml, SectionsSetTheOptions) {
@@ -231,6 +268,14 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.crf_final = true;
   c.crf_iterations = 100;
   c.memory_budget_mb = 1024;
+  c.gpio.led.chip = "pinctrl-bcm2711";
+  c.gpio.led.offset = 17;
+  c.gpio.led.active_low = true;
+  c.gpio.button.chip = "/dev/gpiochip0";
+  c.gpio.button.offset = 27;
+  c.gpio.button.active_low = false;
+  c.gpio.debounce_ms = 45;
+  c.gpio.optional = true;
   back = read_text(c.describe());
   ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << c.describe();
   expect_same(*back, c);
