@@ -187,7 +187,8 @@ int cmd_run(int argc, char** argv) {
   int64_t frames = 0;
   int exit_code = 0;
   slam::SlamFrameResult result;
-  char line[96];
+  char line[128];
+  int64_t dropped_frames = 0;  // corrupt frames of a live camera, skipped
   led.set_pattern(LedPattern::kTracking, panel_now_ms());
   while (config.max_frames < 0 || frames < config.max_frames) {
     if (gpio.button != nullptr && !panel_failed) {
@@ -220,6 +221,7 @@ int cmd_run(int argc, char** argv) {
       if (info.live && got.error().code == ErrorCode::kCorruptData) {
         // One bad frame of a live camera: dropped and counted, capture goes on.
         stats.increment(c.corrupt_frames_dropped);
+        ++dropped_frames;
         continue;
       }
       // Keep what was already accepted: the trajectory, map and statistics so far are written below.
@@ -274,8 +276,9 @@ int cmd_run(int argc, char** argv) {
     ++frames;
     led.set_pattern(result.lost ? LedPattern::kLost : LedPattern::kTracking, panel_now_ms());
     if (!panel_failed) panel_status(led.tick(panel_now_ms()));
-    std::snprintf(line, sizeof line, "%s, %lld surfels", result.lost ? "LOST" : "tracking",
-                  static_cast<long long>(slam.pool().size()));
+    std::snprintf(line, sizeof line, "%s, %lld surfels, %lld lost, %lld dropped", result.lost ? "LOST" : "tracking",
+                  static_cast<long long>(slam.pool().size()), static_cast<long long>(slam.lost_frames()),
+                  static_cast<long long>(dropped_frames));
     progress.update(frames, line);
   }
   progress.finish(frames);
