@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "args.h"
 #include "commands.h"
@@ -189,6 +190,8 @@ int cmd_run(int argc, char** argv) {
   slam::SlamFrameResult result;
   char line[128];
   int64_t dropped_frames = 0;  // corrupt frames of a live camera, skipped
+  std::chrono::steady_clock::time_point replay_wall_start;  // --realtime: wall time of the first frame
+  double replay_t0 = 0;                                      // and its timestamp, seconds
   led.set_pattern(LedPattern::kTracking, panel_now_ms());
   while (config.max_frames < 0 || frames < config.max_frames) {
     if (gpio.button != nullptr && !panel_failed) {
@@ -231,6 +234,17 @@ int cmd_run(int argc, char** argv) {
     }
     if (!*got) break;
     t_source.stop();
+    if (config.realtime && !info.live) {
+      // Recorded speed: frame k is processed no earlier than (t_k - t_0) after the first one.
+      if (frames == 0) {
+        replay_wall_start = std::chrono::steady_clock::now();
+        replay_t0 = input.timestamp;
+      } else {
+        std::this_thread::sleep_until(replay_wall_start +
+                                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                          std::chrono::duration<double>(input.timestamp - replay_t0)));
+      }
+    }
 
     {
       ScopedStageTimer t(stats, st_resample);

@@ -42,6 +42,7 @@ constexpr OptionDoc kOptions[] = {
     {"out", "", "output folder, created if missing; no default: run needs it here or as --out"},
     {"progress", "", "progress line on stderr; default true"},
     {"map", "", "write map.ply at the end of the run; default true"},
+    {"realtime", "", "replay a recording at its recorded speed instead of as fast as possible; default false"},
     {"mapping.surfel_capacity", "surfel_capacity",
      "surfels in the map's pool, allocated at start-up (60 bytes each), 1..100000000; default 1000000"},
     {"mapping.icp_weight", "icp_weight", "tracking: weight of the ICP term, >= 0; default 10"},
@@ -147,6 +148,7 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "out") return c.out_dir.empty() ? "" : quoted(c.out_dir);
   if (path == "progress") return bool_text(c.progress);
   if (path == "map") return bool_text(c.write_map);
+  if (path == "realtime") return bool_text(c.realtime);
   if (path == "mapping.surfel_capacity") return std::to_string(c.surfel_capacity);
   if (path == "mapping.icp_weight") return number_text(c.icp_weight);
   if (path == "mapping.rgb_weight") return number_text(c.rgb_weight);
@@ -335,7 +337,8 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     if (path == "gpio.led_line") config.gpio.led.offset = static_cast<unsigned>(*v);
     else if (path == "gpio.button_line") config.gpio.button.offset = static_cast<unsigned>(*v);
     else config.gpio.debounce_ms = static_cast<int>(*v);
-  } else if (path == "progress" || path == "map" || path == "labels.enabled" || path == "labels.visibility" ||
+  } else if (path == "progress" || path == "map" || path == "realtime" || path == "labels.enabled" ||
+             path == "labels.visibility" ||
              path == "crf.final" || path == "gpio.led_active_low" || path == "gpio.button_active_low" ||
              path == "gpio.optional") {
     bool v = false;
@@ -344,6 +347,7 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     else return bad("is not true or false");
     if (path == "progress") config.progress = v;
     else if (path == "map") config.write_map = v;
+    else if (path == "realtime") config.realtime = v;
     else if (path == "labels.enabled") config.labels = v;
     else if (path == "labels.visibility") config.label_visibility = v;
     else if (path == "gpio.led_active_low") config.gpio.led.active_low = v;
@@ -425,6 +429,7 @@ const std::vector<OptionSpec>& config_override_options() {
       {"--frames", "N", "process at most N frames; default all the source has"},
       {"--out", "DIR", "output folder, created if missing"},
       {"--quiet", "", "no progress line"},
+      {"--realtime", "", "replay a recording at its recorded speed (timestamps); default as fast as possible"},
       {"--surfel-capacity", "N", "surfels in the map's pool (60 bytes each); default 1000000"},
       {"--model", "FILE", "segmentation model (.efm); default the shipped model"},
       {"--no-labels", "", "geometry only: no CNN, no label fusion, no class in map.ply"},
@@ -452,6 +457,7 @@ Result<RunConfig> config_from_args(const ParsedArgs& args) {
     EF_RETURN_IF_ERROR(apply_config_value(key, args.get(opt), "option " + opt, config));
   }
   if (args.has("--quiet")) config.progress = false;
+  if (args.has("--realtime")) config.realtime = true;
   if (args.has("--no-labels")) config.labels = false;
   if (args.has("--crf-final")) config.crf_final = true;
   return config;

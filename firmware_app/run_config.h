@@ -43,6 +43,8 @@ struct RunConfig {
   std::string out_dir;                // output folder; required by `run`
   bool progress = true;               // progress line on stderr
   bool write_map = true;              // write map.ply at the end of the run
+  bool realtime = false;              // replays: pace frames by their timestamps (live sources are
+                                      // paced by the camera anyway); default as fast as possible
   // Mapping (slam/surfel_slam.h), section `mapping`. Defaults are ElasticFusion's / SemanticFusion's.
   int64_t surfel_capacity = 1'000'000;  // surfels in the pool, allocated at start-up (1..100,000,000)
   double icp_weight = 10.0;             // tracking: relative weight of the ICP term (>= 0)

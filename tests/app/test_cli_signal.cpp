@@ -1,5 +1,5 @@
 // SIGTERM (and SIGINT) in the middle of `edgefusion run`: the run stops after the frame in hand,
-// exits 0, and its outputs are complete and agree with each other.
+// exits 0, and its outputs are complete and agree with each other. And --realtime pacing.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -49,6 +49,18 @@ void check_stops_cleanly(int sig, const char* name) {
 
 TEST(CliSignal, SigtermMidRunWritesCompleteOutputs) { check_stops_cleanly(SIGTERM, "SIGTERM"); }
 TEST(CliSignal, SigintMidRunWritesCompleteOutputs) { check_stops_cleanly(SIGINT, "SIGINT"); }
+
+// --realtime paces a replay by its timestamps: 10 frames of a 30 Hz recording span 9/30 s.
+TEST(CliRealtime, ReplayAtRecordedSpeedTakesTheRecordedTime) {
+  const auto dir = test::scratch_dir("cli-realtime");
+  const auto start = std::chrono::steady_clock::now();
+  const auto r = cli({"run", "--source", "synthetic:?frames=10&size=160x120", "--resolution", "160x120",
+                      "--no-labels", "--realtime", "--out", dir.string(), "--quiet"});
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_GE(seconds, 9.0 / 30.0 - 0.005);
+  EXPECT_NE(read_file(dir / "stats.json").find("\"frames\":10,"), std::string::npos);
+}
 
 }  // namespace
 }  // namespace ef::app

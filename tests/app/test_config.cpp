@@ -44,6 +44,7 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.out_dir, b.out_dir);
   EXPECT_EQ(a.progress, b.progress);
   EXPECT_EQ(a.write_map, b.write_map);
+  EXPECT_EQ(a.realtime, b.realtime);
   EXPECT_EQ(a.surfel_capacity, b.surfel_capacity);
   EXPECT_EQ(a.icp_weight, b.icp_weight);
   EXPECT_EQ(a.rgb_weight, b.rgb_weight);
@@ -254,6 +255,7 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.out_dir = "out dir: x";
   c.progress = false;
   c.write_map = false;
+  c.realtime = true;
   c.surfel_capacity = 54321;
   c.icp_weight = 0.1;
   c.rgb_weight = 1.0 / 3.0;
