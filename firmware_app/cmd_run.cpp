@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -15,6 +16,7 @@
 #include "io/frame_resample.h"
 #include "io/ply_writer.h"
 #include "io/stats_json.h"
+#include "capture_thread.h"
 #include "io/trajectory_io.h"
 #include "memory_plan.h"
 #include "platform/devices/status_panel.h"
@@ -29,6 +31,10 @@
 namespace ef::app {
 
 namespace {
+
+// Frame slots between the capture thread of a live camera and the mapper: one being written, one
+// being read, two waiting (about 70 ms at 30 Hz) before the oldest is dropped.
+constexpr int kCaptureSlots = 4;
 
 const std::vector<OptionSpec>& run_options() { return config_override_options(); }
 
@@ -57,7 +63,8 @@ std::string run_help() {
 // Counters written to stats.json, registered once at start-up.
 struct RunCounters {
   int frames, frames_with_pose, frames_with_labels, lost_frames, fused_frames, surfels_created, surfels_removed,
-      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped, stopped_by_signal, stopped_by_button;
+      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped, frames_dropped_overload, stopped_by_signal,
+      stopped_by_button;
 };
 
 // Stage ids of the SLAM steps in StageStats.
@@ -164,7 +171,8 @@ int cmd_run(int argc, char** argv) {
                       stats.add_counter("fused_frames"),    stats.add_counter("surfels_created"),
                       stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
                       stats.add_counter("surfels_refused"), stats.add_counter("camera_lost"),
-                      stats.add_counter("corrupt_frames_dropped"), stats.add_counter("stopped_by_signal"),
+                      stats.add_counter("corrupt_frames_dropped"), stats.add_counter("frames_dropped_overload"),
+                      stats.add_counter("stopped_by_signal"),
                       stats.add_counter("stopped_by_button")};
 
   // SIGINT / SIGTERM from here on: finish the frame in hand, write everything below and exit 0.
@@ -188,6 +196,13 @@ int cmd_run(int argc, char** argv) {
   int64_t frames = 0;
   int exit_code = 0;
   slam::SlamFrameResult result;
+  // Live cameras are read on their own thread into a ring of 4 slots (drop-oldest when the mapper
+  // falls behind); recordings are read here and wait for the mapper.
+  std::unique_ptr<CaptureThread> capture;
+  if (info.live) {
+    capture = std::make_unique<CaptureThread>(source, kCaptureSlots);
+    capture->start();
+  }
   char line[128];
   int64_t dropped_frames = 0;  // corrupt frames of a live camera, skipped
   std::chrono::steady_clock::time_point replay_wall_start;  // --realtime: wall time of the first frame
@@ -211,45 +226,66 @@ int cmd_run(int argc, char** argv) {
       break;
     }
     ScopedStageTimer t_source(stats, st_source);
-    auto got = source.next(input);
-    if (!got.ok() || !*got) t_source.cancel();  // only delivered frames count in the stage's timing
-    if (!got.ok()) {
-      if (is_camera_lost(info, got.error())) {
+    // A live camera is read by the capture thread; a recording here, waiting for the mapper.
+    CapturedFrame* slot = nullptr;
+    std::optional<Error> source_error;
+    bool have_frame = false;
+    if (capture != nullptr) {
+      slot = capture->acquire(std::chrono::milliseconds(200));
+      if (slot == nullptr) {  // nothing captured yet: look at the stop requests again
+        t_source.cancel();
+        continue;
+      }
+      if (slot->end) source_error = slot->error;
+      have_frame = !slot->end;
+    } else {
+      auto got = source.next(input);
+      if (!got.ok()) source_error = got.error();
+      have_frame = got.ok() && *got;
+    }
+    if (!have_frame) {
+      t_source.cancel();  // only delivered frames count in the stage's timing
+      if (slot != nullptr) capture->release();
+    }
+    if (source_error) {
+      if (is_camera_lost(info, *source_error)) {
         // A camera that vanished ends capture like a stop: what was mapped so far is written below.
         std::fprintf(stderr, "%s: %s; capture stopped, writing the outputs of %lld frames\n", kCmd,
-                     got.error().message.c_str(), static_cast<long long>(frames));
+                     source_error->message.c_str(), static_cast<long long>(frames));
         stats.increment(c.camera_lost);
         break;
       }
-      if (info.live && got.error().code == ErrorCode::kCorruptData) {
+      if (info.live && source_error->code == ErrorCode::kCorruptData) {
         // One bad frame of a live camera: dropped and counted, capture goes on.
         stats.increment(c.corrupt_frames_dropped);
         ++dropped_frames;
         continue;
       }
       // Keep what was already accepted: the trajectory, map and statistics so far are written below.
-      report_error(kCmd, got.error(), 1);
+      report_error(kCmd, *source_error, 1);
       exit_code = 1;
       break;
     }
-    if (!*got) break;
+    if (!have_frame) break;
+    const Frame& captured = slot != nullptr ? slot->frame : input;
     t_source.stop();
     if (config.realtime && !info.live) {
       // Recorded speed: frame k is processed no earlier than (t_k - t_0) after the first one.
       if (frames == 0) {
         replay_wall_start = std::chrono::steady_clock::now();
-        replay_t0 = input.timestamp;
+        replay_t0 = captured.timestamp;
       } else {
         std::this_thread::sleep_until(replay_wall_start +
                                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                          std::chrono::duration<double>(input.timestamp - replay_t0)));
+                                          std::chrono::duration<double>(captured.timestamp - replay_t0)));
       }
     }
 
     {
       ScopedStageTimer t(stats, st_resample);
-      resample_frame(input, working);
+      resample_frame(captured, working);
     }
+    if (slot != nullptr) capture->release();  // the slot is free for the camera again
     if (Status s = slam.process(working, &result); !s.ok()) {
       report_error(kCmd, s.error(), 1);
       exit_code = 1;
@@ -292,8 +328,15 @@ int cmd_run(int argc, char** argv) {
     if (!panel_failed) panel_status(led.tick(panel_now_ms()));
     std::snprintf(line, sizeof line, "%s, %lld surfels, %lld lost, %lld dropped", result.lost ? "LOST" : "tracking",
                   static_cast<long long>(slam.pool().size()), static_cast<long long>(slam.lost_frames()),
-                  static_cast<long long>(dropped_frames));
+                  static_cast<long long>(dropped_frames + (capture != nullptr ? static_cast<int64_t>(
+                                                                        capture->dropped() + capture->corrupt_dropped())
+                                                                  : 0)));
     progress.update(frames, line);
+  }
+  if (capture != nullptr) {
+    capture->stop();
+    stats.set_counter(c.frames_dropped_overload, capture->dropped());
+    stats.increment(c.corrupt_frames_dropped, capture->corrupt_dropped());
   }
   progress.finish(frames);
   // Writing the outputs: the slow blink until they are on disk, then off.
