@@ -222,7 +222,9 @@ Peaks measure_peaks(int reps, double min_ms) {
 #if defined(__x86_64__) || defined(__aarch64__)
   for (const PeakLoop& l : kPeakLoops) {
     if (!ef::kernels::isa_available(l.isa)) {
-      std::printf("  %-11s %-58s skipped (CPU lacks it or EF_ISA caps it)\n", ef::kernels::isa_name(l.isa), l.what);
+      std::printf("  %-11s %-58s skipped (%s)\n", ef::kernels::isa_name(l.isa), l.what,
+                  ef::kernels::isa_available(l.isa, ef::detected_cpu_features()) ? "capped by EF_ISA"
+                                                                                 : "not available on this CPU");
       continue;
     }
     const int64_t iters = 4096;
@@ -549,7 +551,9 @@ ShapeResult bench_shape(const Context& ctx, const Shape& sh, const Family& famil
   for (std::size_t i = 0; i < family.count; ++i) {
     const Variant& v = family.rows[i];
     if (!ef::kernels::isa_available(v.isa)) {
-      std::printf("  %-26s %-10s skipped (CPU lacks it or EF_ISA caps it)\n", v.name, ef::kernels::isa_name(v.isa));
+      const bool on_cpu = ef::kernels::isa_available(v.isa, ef::detected_cpu_features());
+      std::printf("  %-26s %-10s skipped (%s)\n", v.name, ef::kernels::isa_name(v.isa),
+                  on_cpu ? "capped by EF_ISA" : "not available on this CPU");
       continue;
     }
     const ef::nn::ConvKernel& k = *v.fn;
