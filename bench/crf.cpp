@@ -1,7 +1,7 @@
 // The dense CRF over a surfel map (issue 6 goal: 10 mean-field iterations over 500,000 surfels in at
 // most 1 s on one core; the paper: 20.3 s).
 //   bench_crf [--surfels N] [--reps R] [--iterations K] [--max-vertices V] [--sort 0|1] [--calibration S]
-//             [--source URI]
+//             [--source URI] [--dump-labels FILE]
 // The map: frames of the synthetic source (default synthetic:?size=320x240&noise=0, the built-in
 // living room on its hand-held loop, noise-free: a fused map's colours and normals are averages over
 // many frames, which single noisy frames are not) back-projected with their exact poses, one surfel
@@ -15,7 +15,8 @@
 // one: thread CPU ms of the whole run and the wall ms of its two parts (lattice build; the rest),
 // and the cost of one iteration as the difference of the two thread CPU medians over K - 1; the
 // lattice vertex counts and the memory. Labels are restored before every run. Pin the CPU
-// (taskset -c 1); one thread.
+// (taskset -c 1); one thread. --dump-labels writes the label store after the last K-iteration run
+// (16 bytes per surfel, pool order), to compare the CRF's results across builds.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -29,6 +30,7 @@
 #include "bench_timing.h"
 #include "core/frame.h"
 #include "io/frame_source.h"
+#include "kernels/crf_rows.h"
 #include "platform/cpu_features.h"
 #include "semantic/dense_crf.h"
 #include "semantic/label_store.h"
@@ -52,6 +54,7 @@ int main(int argc, char** argv) {
   bool sort_map = false;
   int calibration = semantic::DenseCrfOptions{}.calibration_samples;
   std::string uri = "synthetic:?size=320x240&noise=0";
+  std::string dump_path;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--surfels")) target = std::atoll(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--reps")) reps = std::atoi(argv[i + 1]);
@@ -60,6 +63,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--max-vertices")) max_vertices = std::atoll(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--sort")) sort_map = std::atoi(argv[i + 1]) != 0;
     else if (!std::strcmp(argv[i], "--calibration")) calibration = std::atoi(argv[i + 1]);
+    else if (!std::strcmp(argv[i], "--dump-labels")) dump_path = argv[i + 1];
     else {
       std::fprintf(stderr, "unknown option %s\n", argv[i]);
       return 2;
@@ -159,7 +163,8 @@ int main(int argc, char** argv) {
               "voxel, %.1f s to build); wanted %lld\n",
               static_cast<long long>(pool->size()), static_cast<long long>(frames_used), uri.c_str(), voxel * 1e3,
               map_s, static_cast<long long>(target));
-  std::printf("cpu: %s; one thread\n", cpu_features().describe().c_str());
+  std::printf("cpu: %s; one thread; lattice rows: %s\n", cpu_features().describe().c_str(),
+              kernels::crf_rows_selected());
 
   semantic::DenseCrfOptions o;
   o.capacity = pool->size();
@@ -234,5 +239,13 @@ int main(int argc, char** argv) {
               double(last.bilateral_scale_correction), double(last.spatial_scale_correction));
   std::printf("argmax changed by the CRF: %lld surfels (%.1f%%)\n", static_cast<long long>(changed),
               100.0 * double(changed) / double(pool->size()));
+  if (!dump_path.empty()) {
+    std::FILE* out = std::fopen(dump_path.c_str(), "wb");
+    const std::size_t bytes = std::size_t(pool->size()) * semantic::kLabelBytes;
+    if (!out || std::fwrite(pool->labels(), 1, bytes, out) != bytes || std::fclose(out) != 0) {
+      std::fprintf(stderr, "bench_crf: cannot write %s\n", dump_path.c_str());
+      return 1;
+    }
+  }
   return 0;
 }

@@ -16,6 +16,12 @@ constexpr int kV = Lattice::kValues;
 constexpr int64_t kMaxCapacity = 100'000'000 / Lattice::kSimplex;
 constexpr float kQOne = 65535.0f;  // Q is stored in units of 1/65535
 constexpr int kDensityLane = 14;    // a padding lane of Q: splats 1 for the scale calibration
+// Surfels per block of the mean-field loop (the kernels slice and splat a block at a time; three
+// blocks of rows, 12 KiB, live on the stack).
+constexpr int64_t kBlock = 64;
+// Prefetch distance (slots) for the label store: slots are in spatial order, the store in pool order,
+// so each surfel's 16 cost bytes are a random read of a store far larger than the caches.
+constexpr int64_t kLabelPrefetch = 16;
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -242,6 +248,7 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
   uint16_t* q16 = q_.get();
   // Initialisation: Q = softmax(-psi_u), psi_u(l) = cost_l / 16 nats (+ a constant per surfel).
   for (int64_t i = 0; i < n; ++i) {
+    if (i + kLabelPrefetch < n) __builtin_prefetch(labels + std::size_t(order[i + kLabelPrefetch]) * kLabelBytes);
     alignas(64) float z[kV], q[kV];
     const uint8_t* cost = labels + std::size_t(order[i]) * kLabelBytes;
     for (int c = 0; c < kLabelClasses; ++c) z[c] = -float(cost[c]) * kLabelCostStep;
@@ -253,15 +260,31 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
   const float w1 = options_.bilateral_weight, w2 = options_.spatial_weight;
   float g1 = bilateral_.gaussian_scale() / kQOne, g2 = spatial_.gaussian_scale() / kQOne;
   const float s1 = bilateral_.gaussian_scale(), s2 = spatial_.gaussian_scale();
+  // fn(r0, r1) for runs of at most kBlock consecutive slots whose surfel takes part (a surfel either
+  // lattice left out is excluded from both), in slot order.
+  auto for_each_included_run = [&](int64_t begin, int64_t end, auto&& fn) {
+    for (int64_t r0 = begin; r0 < end;) {
+      if (!bilateral_.included(r0)) {
+        ++r0;
+        continue;
+      }
+      int64_t r1 = r0 + 1;
+      while (r1 < end && r1 - r0 < kBlock && bilateral_.included(r1)) ++r1;
+      fn(r0, r1);
+      r0 = r1;
+    }
+  };
   // Each kernel has its own splat buffer, so one pass over the surfels slices iteration t's filters
   // and splats iteration t+1's Q; then both buffers are blurred into the lattices' values.
   float* splat1 = bilateral_.begin_splat(scratch_[0].get());
   float* splat2 = spatial_.begin_splat(scratch_[1].get());
-  for (int64_t i = 0; i < n; ++i) {
-    if (!bilateral_.included(i)) continue;
-    bilateral_.splat(i, q16 + i * kV, splat1);
-    spatial_.splat(i, q16 + i * kV, splat2);
-  }
+  for_each_included_run(0, n, [&](int64_t r0, int64_t r1) {
+    alignas(64) float stored[kBlock * kV];
+    for (int64_t i = r0; i < r1; ++i)
+      for (int c = 0; c < kV; ++c) stored[(i - r0) * kV + c] = float(q16[i * kV + c]);
+    bilateral_.splat(r0, r1, stored, splat1);
+    spatial_.splat(r0, r1, stored, splat2);
+  });
   bilateral_.blur(splat1);
   spatial_.blur(splat2);
   for (int it = 0; it < options_.iterations; ++it) {
@@ -310,33 +333,42 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
       bilateral_.begin_splat(splat1);
       spatial_.begin_splat(splat2);
     }
-    for (int64_t i = 0; i < n; ++i) {
-      if (!bilateral_.included(i)) continue;
-      alignas(64) float a[kV], b[kV], z[kV], q[kV];
-      bilateral_.slice(i, a);
-      spatial_.slice(i, b);
-      // The surfel's own share of each filter, in the same units, is taken out (s' != s).
-      const float self1 = s1 * bilateral_.self_weight(i), self2 = s2 * spatial_.self_weight(i);
-      const uint16_t* qi = q16 + i * kV;
-      uint8_t* cost = labels + std::size_t(order[i]) * kLabelBytes;
-      for (int c = 0; c < kV; ++c) {
-        const float own = float(qi[c]) * (1.0f / kQOne);
-        const float message = w1 * (g1 * a[c] - self1 * own) + w2 * (g2 * b[c] - self2 * own);
-        z[c] = message - float(cost[c]) * kLabelCostStep;
+    // Blocks of consecutive surfels that take part: both kernels sliced for the block, each surfel's
+    // update, then the block's new Q splatted (slices read the lattices' values, splats write the
+    // splat buffers, so the block order gives the per-surfel order's bits).
+    for_each_included_run(0, n, [&](int64_t r0, int64_t r1) {
+      alignas(64) float a[kBlock * kV], b[kBlock * kV], stored[kBlock * kV];
+      bilateral_.slice(r0, r1, a);
+      spatial_.slice(r0, r1, b);
+      for (int64_t i = r0; i < r1; ++i) {
+        if (i + kLabelPrefetch < n) __builtin_prefetch(labels + std::size_t(order[i + kLabelPrefetch]) * kLabelBytes);
+        alignas(64) float z[kV], q[kV];
+        const float* ai = a + (i - r0) * kV;
+        const float* bi = b + (i - r0) * kV;
+        // The surfel's own share of each filter, in the same units, is taken out (s' != s).
+        const float self1 = s1 * bilateral_.self_weight(i), self2 = s2 * spatial_.self_weight(i);
+        const uint16_t* qi = q16 + i * kV;
+        uint8_t* cost = labels + std::size_t(order[i]) * kLabelBytes;
+        for (int c = 0; c < kV; ++c) {
+          const float own = float(qi[c]) * (1.0f / kQOne);
+          const float message = w1 * (g1 * ai[c] - self1 * own) + w2 * (g2 * bi[c] - self2 * own);
+          z[c] = message - float(cost[c]) * kLabelCostStep;
+        }
+        softmax_classes(z, q);
+        if (last) {
+          encode_labels(q, cost);
+        } else {
+          // Splat exactly the stored (quantised) Q, which the next iteration's self term uses.
+          uint16_t* next = q16 + i * kV;
+          store_q(q, next);
+          for (int c = 0; c < kV; ++c) stored[(i - r0) * kV + c] = float(next[c]);
+        }
       }
-      softmax_classes(z, q);
-      if (last) {
-        encode_labels(q, cost);
-      } else {
-        // Splat exactly the stored (quantised) Q, which the next iteration's self term uses.
-        uint16_t* next = q16 + i * kV;
-        store_q(q, next);
-        alignas(64) float stored[kV];
-        for (int c = 0; c < kV; ++c) stored[c] = float(next[c]);
-        bilateral_.splat(i, stored, splat1);
-        spatial_.splat(i, stored, splat2);
+      if (!last) {
+        bilateral_.splat(r0, r1, stored, splat1);
+        spatial_.splat(r0, r1, stored, splat2);
       }
-    }
+    });
     if (!last) {
       bilateral_.blur(splat1);
       spatial_.blur(splat2);

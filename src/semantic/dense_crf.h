@@ -31,6 +31,10 @@
 //   total                    capacity x 128 + max_lattice_vertices x 368; DenseCrf::bytes(). With the
 //                            derived vertex limit (0.3 per surfel): 238 bytes per surfel of capacity,
 //                            238 MB for 1,000,000 surfels, 119 MB for 500,000.
+//   stack                    the iterations take 64 surfels at a time: three blocks of 64 x 16 floats
+//                            (12 KiB: both kernels' slices and the new Q to splat)
+// Splat, blur and slice are the kernels' crf_rows family (kernels/crf_rows.h): the best SIMD variant
+// for the CPU, each giving the scalar reference's bits, so the results do not depend on the variant.
 // Lattice full (more vertices than max_lattice_vertices in one kernel's lattice): the surfels whose
 // simplex no longer fits are left out of the CRF (no messages to or from them, their labels
 // untouched) and counted in DenseCrfStats::surfels_left_out; the run still succeeds.

@@ -4,6 +4,8 @@
 #include <cstring>
 #include <string>
 
+#include "kernels/crf_rows.h"
+
 namespace ef::semantic {
 
 namespace {
@@ -254,12 +256,14 @@ void PermutohedralLattice::exclude(int64_t i) {
   self_[i] = -1;
 }
 
-void PermutohedralLattice::splat(int64_t i, const float* v, float* splat_buffer) const {
-  alignas(64) float value[V];
-  for (int c = 0; c < V; ++c) value[c] = v[c];
-  const uint32_t* off = offsets_.get() + i * D1;
-  const uint16_t* w = weights_.get() + i * D1;
-  for (int k = 0; k < D1; ++k) add_scaled(splat_buffer + std::size_t(off[k]) * V, value, float(w[k]));
+void PermutohedralLattice::splat(int64_t begin, int64_t end, const float* v, float* splat_buffer) const {
+  kernels::crf_splat_rows(splat_buffer, offsets_.get() + begin * D1, weights_.get() + begin * D1,
+                          std::size_t(end - begin), v);
+}
+
+void PermutohedralLattice::slice(int64_t begin, int64_t end, float* out) const {
+  kernels::crf_slice_rows(values_.get(), offsets_.get() + begin * D1, weights_.get() + begin * D1,
+                          std::size_t(end - begin), out);
 }
 
 void PermutohedralLattice::splat(int64_t i, const uint16_t* v, float* splat_buffer) const {
@@ -280,15 +284,7 @@ void PermutohedralLattice::blur(float* scratch) {
   float* out = values_.get();
   const auto nv = std::size_t(vertices_);
   for (int j = 0; j < D1; ++j) {
-    const uint32_t* n = neighbours_.get() + std::size_t(j) * nv * 2;
-    for (std::size_t v = 0; v < nv; ++v) {
-      const float* a = in + std::size_t(n[2 * v]) * V;
-      const float* b = in + std::size_t(n[2 * v + 1]) * V;
-      const float* c = in + v * V;
-      alignas(64) float sum[V];  // a local vector and a copy: the form GCC vectorises
-      for (int k = 0; k < V; ++k) sum[k] = 0.5f * c[k] + 0.25f * (a[k] + b[k]);
-      std::memcpy(out + v * V, sum, sizeof(sum));
-    }
+    kernels::crf_blur_rows(in, out, neighbours_.get() + std::size_t(j) * nv * 2, 0, nv);
     float* t = in;
     in = out;
     out = t;
@@ -298,10 +294,10 @@ void PermutohedralLattice::blur(float* scratch) {
 
 void PermutohedralLattice::filter(const float* in, float* out, float* scratch) {
   float* buffer = begin_splat(scratch);
-  for (int64_t i = 0; i < points_; ++i) splat(i, in + i * V, buffer);
+  splat(0, points_, in, buffer);
   blur(scratch);
+  slice(0, points_, out);
   for (int64_t i = 0; i < points_; ++i) {
-    slice(i, out + i * V);
     for (int c = 0; c < V; ++c) out[i * V + c] *= gaussian_scale_;
   }
 }

@@ -21,6 +21,9 @@
 // factor); on points spread through all 6 dimensions it is 0.33 x, 21% rms after one factor.
 // DenseCrf measures the factor on sample surfels each run (DenseCrfOptions::calibration_samples).
 //
+// Splat, blur and slice move 16-float rows through the kernels' crf_rows family (kernels/crf_rows.h,
+// dispatched to the best SIMD variant; every variant gives the scalar reference's bits).
+//
 // Construction happens once per set of features (begin, add for every point, finish): vertex keys
 // (d int16 coordinates) are hashed (open addressing, linear probing, load factor <= 0.5, slots of
 // vertex index and full hash), each point keeps its d+1 vertex
@@ -109,22 +112,19 @@ class PermutohedralLattice {
   // --- filtering ------------------------------------------------------------------------------
   // Zeroes the splat buffer (scratch rows 0..vertices()) and returns it.
   float* begin_splat(float* scratch) const;
-  // Adds point i's value vector, times its weights, to the splat buffer. Out of line on purpose: the
-  // caller's vector stays in memory and the loop over the 7 rows vectorises.
-  void splat(int64_t i, const float* v, float* splat_buffer) const;
+  // Adds point i's value vector, times its weights, to the splat buffer.
+  void splat(int64_t i, const float* v, float* splat_buffer) const { splat(i, i + 1, v, splat_buffer); }
+  // The same for points begin..end-1 in order, value vectors v[(i - begin) x kValues ...].
+  void splat(int64_t begin, int64_t end, const float* v, float* splat_buffer) const;
   // The same for a value vector of uint16 (the CRF's Q in units of 1/65535).
   void splat(int64_t i, const uint16_t* v, float* splat_buffer) const;
   // Blurs the splat buffer along every direction; the result lands in values() (the scratch is
   // overwritten).
   void blur(float* scratch);
   // Point i's interpolated blurred values (raw: times gaussian_scale() for Gaussian-sum units).
-  void slice(int64_t i, float* out) const {
-    const uint32_t* off = offsets_.get() + i * kSimplex;
-    const uint16_t* w = weights_.get() + i * kSimplex;
-    alignas(64) float acc[kValues] = {};
-    for (int k = 0; k < kSimplex; ++k) add_scaled(acc, values_.get() + std::size_t(off[k]) * kValues, float(w[k]));
-    for (int c = 0; c < kValues; ++c) out[c] = acc[c];
-  }
+  void slice(int64_t i, float* out) const { slice(i, i + 1, out); }
+  // The same for points begin..end-1 into (end - begin) x kValues floats of out.
+  void slice(int64_t begin, int64_t end, float* out) const;
   // Raw slice(splat(v)) x gaussian_scale() ~ sum_j exp(-|f_i - f_j|^2 / 2) v_j.
   float gaussian_scale() const { return gaussian_scale_; }
   // The part of point i's raw slice that comes from its own splat, per unit of its value, assuming
@@ -141,13 +141,6 @@ class PermutohedralLattice {
   const uint16_t* point_weights() const { return weights_.get(); }
 
  private:
-  // dst += w * src over one value vector. Written as a sum into a local vector and a copy back:
-  // GCC 12 vectorises that form (a read-modify-write through a looked-up row it leaves scalar).
-  static void add_scaled(float* dst, const float* __restrict src, float w) {
-    alignas(64) float sum[kValues];
-    for (int c = 0; c < kValues; ++c) sum[c] = dst[c] + w * src[c];
-    std::memcpy(dst, sum, sizeof(sum));
-  }
   uint32_t find_or_insert(const int16_t* key, bool insert);
   uint32_t find(const int16_t* key) const;
 
