@@ -14,72 +14,13 @@
 
 #include "../kernels/kernel_test_util.h"
 #include "nn/conv_kernels.h"
+#include "nn/conv_test_cases.h"
 #include "nn/layers_ref.h"
 
 namespace ef::nn {
 namespace {
 
-struct AlignedFree {
-  void operator()(void* p) const { std::free(p); }
-};
-using Blob = std::unique_ptr<void, AlignedFree>;
-Blob aligned_blob(std::size_t bytes) {
-  return Blob(std::aligned_alloc(64, (bytes + 63) / 64 * 64 + 64));
-}
-
-struct Case {
-  int h, w, cin, cout, kh, kw, stride, dilation, pad_top, pad_left, pad_bottom, pad_right;
-  int32_t in_zp = -3, out_zp = 5, out_min = -128, out_max = 127;
-  int bias_range = 3000;
-  float mult_lo = 0.0005f, mult_hi = 0.004f;
-};
-
-struct Layer {
-  Case c;
-  int oh, ow;
-  std::vector<int8_t> in, weights;
-  std::vector<int32_t> bias;
-  std::vector<Requant> rq;
-};
-
-Layer make_layer(const Case& c, std::mt19937& rng) {
-  Layer l{c, 0, 0, {}, {}, {}, {}};
-  l.oh = (c.h + c.pad_top + c.pad_bottom - (c.dilation * (c.kh - 1) + 1)) / c.stride + 1;
-  l.ow = (c.w + c.pad_left + c.pad_right - (c.dilation * (c.kw - 1) + 1)) / c.stride + 1;
-  std::uniform_int_distribution<int> byte(-128, 127), wbyte(-127, 127), b(-c.bias_range, c.bias_range);
-  std::uniform_real_distribution<float> m(c.mult_lo, c.mult_hi);
-  l.in.resize(std::size_t(c.h) * c.w * c.cin);
-  for (auto& v : l.in) v = int8_t(byte(rng));
-  l.weights.resize(std::size_t(c.cout) * c.kh * c.kw * c.cin);
-  for (auto& v : l.weights) v = int8_t(wbyte(rng));
-  l.bias.resize(c.cout);
-  for (auto& v : l.bias) v = b(rng);
-  l.rq.resize(c.cout);
-  for (auto& r : l.rq) r.multiplier = m(rng);
-  return l;
-}
-
-ConvArgs args_of(const Layer& l, int8_t* out) {
-  ConvArgs a;
-  a.in = {l.in.data(), l.c.h, l.c.w, l.c.cin, l.c.in_zp};
-  a.out = {out, l.oh, l.ow, l.c.cout, l.c.out_zp};
-  a.kernel_h = l.c.kh; a.kernel_w = l.c.kw;
-  a.stride_h = a.stride_w = l.c.stride;
-  a.dilation_h = a.dilation_w = l.c.dilation;
-  a.pad_top = l.c.pad_top; a.pad_left = l.c.pad_left;
-  a.weights = l.weights.data(); a.bias = l.bias.data(); a.requant = l.rq.data();
-  a.out_min = l.c.out_min; a.out_max = l.c.out_max;
-  return a;
-}
-
-std::string describe(const Case& c) {
-  return std::to_string(c.h) + "x" + std::to_string(c.w) + "x" + std::to_string(c.cin) + " -> " +
-         std::to_string(c.cout) + " k" + std::to_string(c.kh) + "x" + std::to_string(c.kw) + " s" +
-         std::to_string(c.stride) + " d" + std::to_string(c.dilation) + " pad " + std::to_string(c.pad_top) + "," +
-         std::to_string(c.pad_left) + "," + std::to_string(c.pad_bottom) + "," + std::to_string(c.pad_right) +
-         " zp " + std::to_string(c.in_zp) + "/" + std::to_string(c.out_zp) + " range [" + std::to_string(c.out_min) +
-         ", " + std::to_string(c.out_max) + "]";
-}
+using namespace conv_test;
 
 // Runs every runnable variant on `l` over rows [oy_begin, oy_end) and compares with the reference;
 // rows outside the range must keep their sentinel bytes.
@@ -113,98 +54,14 @@ TEST(NnConvVariants, ReportVariants) {
   EXPECT_FALSE(test::runnable_variants(kConvI8Variants, "conv_i8").empty());
 }
 
-TEST(NnConvVariants, ChannelCountsAroundPanelsAndSteps) {
-  std::mt19937 rng(101);
-  for (int cin : {1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 24, 33}) {
-    for (int cout : {1, 3, 4, 5, 8, 9, 14, 16, 17, 24, 31, 32, 33, 48, 64, 65, 80, 96, 130}) {
-      Case c{5, 7, cin, cout, 3, 3, 1, 1, 1, 1, 1, 1};
-      expect_variants_match(make_layer(c, rng));
-      if (HasFatalFailure()) return;
-    }
-  }
-}
-
-TEST(NnConvVariants, RandomGeometry) {
-  std::mt19937 rng(202);
-  std::uniform_int_distribution<int> hw(1, 19), ch(1, 40), k(1, 5), s(1, 3), d(1, 3), zp(-128, 127);
-  for (int rep = 0; rep < 120; ++rep) {
-    Case c{hw(rng), hw(rng), ch(rng), ch(rng), k(rng), k(rng), s(rng), d(rng), 0, 0, 0, 0};
-    const int span_h = c.dilation * (c.kh - 1) + 1, span_w = c.dilation * (c.kw - 1) + 1;
-    std::uniform_int_distribution<int> ph(0, span_h - 1), pw(0, span_w - 1);
-    c.pad_top = ph(rng); c.pad_bottom = ph(rng); c.pad_left = pw(rng); c.pad_right = pw(rng);
-    if (c.h + c.pad_top + c.pad_bottom < span_h || c.w + c.pad_left + c.pad_right < span_w) continue;
-    c.in_zp = zp(rng); c.out_zp = zp(rng);
-    expect_variants_match(make_layer(c, rng));
-    if (HasFatalFailure()) return;
-  }
-}
-
-TEST(NnConvVariants, WideRowsAndPointwise) {
-  std::mt19937 rng(303);
-  // Rows longer than every tile (5..16 pixels), with tails of each length; 1x1 pointwise.
-  for (int w : {1, 2, 11, 12, 13, 16, 17, 29, 33, 40}) {
-    expect_variants_match(make_layer(Case{2, w, 24, 48, 1, 1, 1, 1, 0, 0, 0, 0}, rng));
-    expect_variants_match(make_layer(Case{3, w, 32, 32, 3, 3, 1, 1, 1, 1, 1, 1}, rng));
-    expect_variants_match(make_layer(Case{4, w, 4, 24, 3, 3, 2, 1, 1, 1, 1, 1}, rng));
-    // Channels that do not fill the panels (the PMADDWD tiles store full panels into the next
-    // pixels of the row, which are stored later; never past the row).
-    expect_variants_match(make_layer(Case{3, w, 32, 14, 1, 1, 1, 1, 0, 0, 0, 0}, rng));
-    expect_variants_match(make_layer(Case{2, w, 8, 3, 1, 1, 1, 1, 0, 0, 0, 0}, rng));
-    if (HasFatalFailure()) return;
-  }
-}
-
-// The PMADDWD variants pack a k x k layer whose channels are not a multiple of 8 as one tap of
-// taps x cin channels when that is at most 256 values: both sides of that boundary, with padding.
-TEST(NnConvVariants, WholeWindowPackingBoundary) {
-  std::mt19937 rng(606);
-  for (auto [k, cin] : {std::pair{3, 28}, {3, 29}, {5, 10}, {5, 11}, {3, 4}, {7, 5}, {2, 3}}) {
-    Case c{9, 11, cin, 19, k, k, 1, 1, k / 2, k / 2, k / 2, k / 2};
-    expect_variants_match(make_layer(c, rng));
-    Case s2{9, 12, cin, 24, k, k, 2, 1, k / 2, k / 2, k / 2, k / 2};
-    expect_variants_match(make_layer(s2, rng));
-    if (HasFatalFailure()) return;
-  }
-}
-
-TEST(NnConvVariants, RowRangesWriteOnlyTheirRows) {
-  std::mt19937 rng(404);
-  const Layer l = make_layer(Case{9, 13, 16, 20, 3, 3, 1, 1, 1, 1, 1, 1}, rng);
-  // 1x1 with 14 and 3 channels: partial panels, whose stores may run into the next pixel.
-  const Layer pw14 = make_layer(Case{6, 11, 32, 14, 1, 1, 1, 1, 0, 0, 0, 0}, rng);
-  const Layer pw3 = make_layer(Case{5, 3, 8, 3, 1, 1, 1, 1, 0, 0, 0, 0}, rng);
-  for (auto [b, e] : {std::pair{0, 1}, {3, 4}, {2, 7}, {8, 9}, {0, 9}, {5, 5}}) {
-    expect_variants_match(l, b, e);
-    expect_variants_match(pw14, b < 6 ? b : 5, e < 6 ? e : 6);
-    expect_variants_match(pw3, b < 5 ? b : 4, e < 5 ? e : 5);
-    if (HasFatalFailure()) return;
-  }
-}
-
-TEST(NnConvVariants, SaturationActivationRangesAndTies) {
-  std::mt19937 rng(505);
-  // Huge biases and multipliers: most outputs clamp at both ends.
-  Case big{6, 9, 17, 19, 3, 3, 1, 1, 1, 1, 1, 1};
-  big.bias_range = 1 << 30;
-  big.mult_lo = 0.5f; big.mult_hi = 1000.0f;
-  expect_variants_match(make_layer(big, rng));
-  // ReLU6-like ranges with extreme zero points.
-  for (auto [zp, lo, hi] : {std::tuple{-128, -128, -80}, {127, 127, 127}, {0, 0, 37}, {-20, -20, 127}}) {
-    Case c{5, 6, 12, 21, 3, 3, 1, 1, 1, 1, 1, 1};
-    c.out_zp = zp; c.out_min = lo; c.out_max = hi;
-    expect_variants_match(make_layer(c, rng));
-  }
-  // Multiplier 0.5 and tiny accumulators: every odd accumulator is a rounding tie.
-  Case ties{4, 5, 3, 9, 1, 1, 1, 1, 0, 0, 0, 0};
-  ties.bias_range = 3;
-  ties.mult_lo = ties.mult_hi = 0.5f;
-  Layer l = make_layer(ties, rng);
-  for (auto& v : l.weights) v = int8_t(v % 2);
-  for (auto& v : l.in) v = int8_t(v % 3);
-  expect_variants_match(l);
-  // 5x5 with dilation 2 on an image smaller than the window (every tap hits padding somewhere).
-  expect_variants_match(make_layer(Case{3, 4, 10, 18, 5, 5, 1, 2, 4, 4, 4, 4}, rng));
-}
+// The case families of conv_test_cases.h (each described there), every runnable variant each.
+TEST(NnConvVariants, ChannelCountsAroundPanelsAndSteps) { conv_cases_channel_counts([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
+TEST(NnConvVariants, RandomGeometry) { conv_cases_random_geometry([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
+TEST(NnConvVariants, WideRowsAndPointwise) { conv_cases_wide_rows([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
+TEST(NnConvVariants, WholeWindowPackingBoundary) { conv_cases_whole_window([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
+TEST(NnConvVariants, RowRangesWriteOnlyTheirRows) { conv_cases_row_ranges([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
+TEST(NnConvVariants, SaturationActivationRangesAndTies) { conv_cases_saturation([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
+TEST(NnConvVariants, ExtremeInputsAndWeights) { conv_cases_extremes([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
 
 }  // namespace
 }  // namespace ef::nn
