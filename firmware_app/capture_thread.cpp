@@ -1,5 +1,10 @@
 #include "capture_thread.h"
 
+#include <cstdio>
+#include <string>
+
+#include "platform/thread_affinity.h"
+
 namespace ef::app {
 
 namespace {
@@ -16,12 +21,19 @@ CaptureThread::CaptureThread(FrameSource& source, int slots)
 
 CaptureThread::~CaptureThread() { stop(); }
 
-void CaptureThread::start() {
-  if (!thread_.joinable()) thread_ = std::thread([this] { produce(); });
+void CaptureThread::start(int cpu) {
+  if (thread_.joinable()) return;
+  thread_ = std::thread([this, cpu] {
+    if (cpu >= 0) {
+      const std::string why = pin_current_thread_to_cpu(cpu);
+      if (!why.empty()) std::fprintf(stderr, "warning: capture thread: %s; it runs unpinned\n", why.c_str());
+    }
+    produce();
+  });
 }
 
 void CaptureThread::stop() {
-  stop_.store(true, std::memory_order_relaxed);
+  request_stop();
   if (thread_.joinable()) thread_.join();
   ring_.close();
 }

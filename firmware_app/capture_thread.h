@@ -42,8 +42,13 @@ class CaptureThread {
   CaptureThread(const CaptureThread&) = delete;
   CaptureThread& operator=(const CaptureThread&) = delete;
 
-  void start();
-  // Asks the producer to stop after the frame in hand and joins it. Idempotent.
+  // Launches the capture thread, pinned to CPU core `cpu` when >= 0 (a failure to pin is a warning
+  // on stderr: capture still runs).
+  void start(int cpu = -1);
+  // Asks the producer to stop after the frame in hand; it then commits the end marker. Returns at
+  // once: the frames already captured stay in the ring for the consumer. Any thread.
+  void request_stop() { stop_.store(true, std::memory_order_relaxed); }
+  // request_stop(), then joins the thread and closes the ring. Idempotent.
   void stop();
 
   // Consumer: the oldest captured slot, waiting up to `timeout`; nullptr on time-out. The slot

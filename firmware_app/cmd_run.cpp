@@ -3,38 +3,24 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
-#include <optional>
 #include <string>
-#include <thread>
 
 #include "args.h"
 #include "commands.h"
-#include "core/frame.h"
 #include "core/stage_stats.h"
-#include "io/frame_resample.h"
-#include "io/ply_writer.h"
-#include "io/stats_json.h"
-#include "capture_thread.h"
-#include "io/trajectory_io.h"
 #include "memory_plan.h"
 #include "platform/devices/status_panel.h"
 #include "progress.h"
 #include "run_config.h"
-#include "run_semantics.h"
+#include "run_pipeline.h"
 #include "stop_signal.h"
-#include "slam/surfel_slam.h"
 #include "sources/open_source.h"
 #include "synth/synthetic_source.h"
 
 namespace ef::app {
 
 namespace {
-
-// Frame slots between the capture thread of a live camera and the mapper: one being written, one
-// being read, two waiting (about 70 ms at 30 Hz) before the oldest is dropped.
-constexpr int kCaptureSlots = 4;
 
 const std::vector<OptionSpec>& run_options() { return config_override_options(); }
 
@@ -60,26 +46,85 @@ std::string run_help() {
                      run_options());
 }
 
-// Counters written to stats.json, registered once at start-up.
-struct RunCounters {
-  int frames, frames_with_pose, frames_with_labels, lost_frames, fused_frames, surfels_created, surfels_removed,
-      surfels_evicted, surfels_refused, camera_lost, corrupt_frames_dropped, frames_dropped_overload, stopped_by_signal,
-      stopped_by_button;
-};
+// The robot's side of a run, on the mapping thread between frames: SIGINT / SIGTERM and the
+// start/stop button end it; the status LED shows tracking / lost; the progress line.
+class PanelObserver : public RunObserver {
+ public:
+  PanelObserver(const char* cmd, GpioLines& gpio, const GpioOptions& options, StageStats& stats, int64_t expected,
+                bool progress)
+      : cmd_(cmd),
+        gpio_(gpio),
+        led_(gpio.led.get()),
+        button_(gpio.button.get(), options.debounce_ms, /*initially_running=*/true),
+        stats_(stats),
+        c_signal_(stats.add_counter("stopped_by_signal")),
+        c_button_(stats.add_counter("stopped_by_button")),
+        progress_("run", expected, progress),
+        start_(std::chrono::steady_clock::now()) {}
 
-// Stage ids of the SLAM steps in StageStats.
-struct SlamStages {
-  int preprocess, track, fuse, predict;
-};
+  void set_led(LedPattern pattern) {
+    led_.set_pattern(pattern, now_ms());
+    if (!panel_failed_) panel_status(led_.tick(now_ms()));
+  }
 
-slam::SurfelSlamOptions slam_options(const RunConfig& config) {
-  slam::SurfelSlamOptions o;
-  o.pool.capacity = config.surfel_capacity;
-  o.tracker.icp_weight = config.icp_weight;
-  o.tracker.rgb_weight = config.rgb_weight;
-  o.preprocess.depth_cutoff_m = config.depth_cutoff_m;
-  return o;
-}
+  bool stop_requested(const RunPipeline& pipeline) override {
+    const auto frames = static_cast<long long>(pipeline.mapping().frames());
+    if (gpio_.button != nullptr && !panel_failed_) {
+      auto pressed = button_.poll(now_ms());
+      panel_status(pressed.ok() ? Status::success() : Status(pressed.error()));
+      if (pressed.ok() && *pressed && !button_.running()) {
+        std::fprintf(stderr, "\n%s: stop button pressed after %lld frames: stopping, writing the outputs\n", cmd_,
+                     frames);
+        stats_.increment(c_button_);
+        return true;
+      }
+    }
+    if (stop_signal_.stop_requested()) {
+      std::fprintf(stderr, "\n%s: %s received after %lld frames: stopping, writing the outputs\n", cmd_,
+                   stop_signal_.signal_number() == SIGINT ? "SIGINT" : "SIGTERM", frames);
+      stats_.increment(c_signal_);
+      return true;
+    }
+    return false;
+  }
+
+  void frame_mapped(const RunPipeline& pipeline) override {
+    const slam::SlamFrameResult& r = pipeline.mapping().last_result();
+    set_led(r.lost ? LedPattern::kLost : LedPattern::kTracking);
+    const slam::SurfelSlam& slam = pipeline.slam();
+    std::snprintf(line_, sizeof line_, "%s, %lld surfels, %lld lost, %lld dropped", r.lost ? "LOST" : "tracking",
+                  static_cast<long long>(slam.pool().size()), static_cast<long long>(slam.lost_frames()),
+                  static_cast<long long>(pipeline.frames_dropped()));
+    progress_.update(pipeline.mapping().frames(), line_);
+  }
+
+  void finish(int64_t frames) { progress_.finish(frames); }
+
+ private:
+  int64_t now_ms() const {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start_).count();
+  }
+  // A failing LED or button line is reported once and then left alone: the map matters more.
+  void panel_status(const Status& s) {
+    if (!s.ok() && !panel_failed_) {
+      std::fprintf(stderr, "%s: warning: front panel: %s\n", cmd_, s.error().message.c_str());
+      panel_failed_ = true;
+    }
+  }
+
+  const char* cmd_;
+  GpioLines& gpio_;
+  StatusLed led_;
+  StartStopButton button_;
+  StageStats& stats_;
+  const int c_signal_, c_button_;
+  // SIGINT / SIGTERM from here on: finish the frame in hand, drain, write the outputs and exit 0.
+  StopSignalScope stop_signal_;
+  Progress progress_;
+  bool panel_failed_ = false;
+  std::chrono::steady_clock::time_point start_;
+  char line_[128] = {};
+};
 
 }  // namespace
 
@@ -110,290 +155,64 @@ int cmd_run(int argc, char** argv) {
   if (!gpio_or.ok()) return report_error(kCmd, gpio_or.error(), 2);
   GpioLines gpio = std::move(*gpio_or);
   if (!gpio.warnings.empty()) std::fprintf(stderr, "%s: warning: %s\n", kCmd, gpio.warnings.c_str());
-  StatusLed led(gpio.led.get());
-  StartStopButton button(gpio.button.get(), config.gpio.debounce_ms, /*initially_running=*/true);
-  const auto panel_clock_start = std::chrono::steady_clock::now();
-  const auto panel_now_ms = [&] {
-    return static_cast<int64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(
-                                    std::chrono::steady_clock::now() - panel_clock_start)
-                                    .count());
-  };
-  // A failing LED or button line is reported once and then left alone: the map matters more.
-  bool panel_failed = false;
-  const auto panel_status = [&](const Status& s) {
-    if (!s.ok() && !panel_failed) {
-      std::fprintf(stderr, "%s: warning: front panel: %s\n", kCmd, s.error().message.c_str());
-      panel_failed = true;
-    }
-  };
 
   auto source_or = open_source(config.source);
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
   FrameSource& source = **source_or;
   const SourceInfo& info = source.info();
 
-  std::error_code ec;
-  std::filesystem::create_directories(config.out_dir, ec);
-  if (ec)
-    return report_error(kCmd, error(ErrorCode::kIoError, "cannot create output folder '" + config.out_dir +
-                                                             "': " + ec.message()), 1);
-  const std::string trajectory_path = (std::filesystem::path(config.out_dir) / "trajectory.txt").string();
-  const std::string map_path = (std::filesystem::path(config.out_dir) / "map.ply").string();
-  const std::string stats_path = (std::filesystem::path(config.out_dir) / "stats.json").string();
-
   // Everything sized once, before the first frame.
-  Frame input, working;
-  input.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
-  working.allocate(config.width, config.height, info.has_labels);
-  const Intrinsics working_k = info.intrinsics.scaled_to(config.width, config.height);
+  StageStats stats;
+  auto pipeline_or = RunPipeline::create(config, source, stats);
+  if (!pipeline_or.ok()) {
+    const ErrorCode code = pipeline_or.error().code;
+    return report_error(kCmd, pipeline_or.error(), code == ErrorCode::kIoError ? 1 : 2);
+  }
+  RunPipeline& pipeline = **pipeline_or;
   int64_t expected = info.frame_count;
   if (config.max_frames > 0 && (expected < 0 || config.max_frames < expected)) expected = config.max_frames;
+  PanelObserver panel(kCmd, gpio, config.gpio, stats, expected, config.progress);
 
-  auto slam_or = slam::SurfelSlam::create(working_k, slam_options(config));
-  if (!slam_or.ok()) return report_error(kCmd, slam_or.error(), 2);
-  slam::SurfelSlam& slam = *slam_or;
-
-  StageStats stats;
-  std::unique_ptr<RunSemantics> semantics;
-  if (config.labels) {
-    auto sem = RunSemantics::create(config, working_k, stats);
-    if (!sem.ok()) return report_error(kCmd, sem.error(), 2);
-    semantics = std::move(*sem);
-  }
-  const int st_source = stats.add_stage("source");
-  const int st_resample = stats.add_stage("resample");
-  const SlamStages st{stats.add_stage("preprocess"), stats.add_stage("track"), stats.add_stage("fuse"),
-                      stats.add_stage("predict")};
-  const int st_slam = stats.add_stage("slam_total");
-  const int st_output = stats.add_stage("output");
-  const RunCounters c{stats.add_counter("frames"),          stats.add_counter("frames_with_pose"),
-                      stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
-                      stats.add_counter("fused_frames"),    stats.add_counter("surfels_created"),
-                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
-                      stats.add_counter("surfels_refused"), stats.add_counter("camera_lost"),
-                      stats.add_counter("corrupt_frames_dropped"), stats.add_counter("frames_dropped_overload"),
-                      stats.add_counter("stopped_by_signal"),
-                      stats.add_counter("stopped_by_button")};
-
-  // SIGINT / SIGTERM from here on: finish the frame in hand, write everything below and exit 0.
-  StopSignalScope stop_signal;
-  TumTrajectoryWriter trajectory;
-  if (Status s = trajectory.open(trajectory_path); !s.ok()) return report_error(kCmd, s.error(), 1);
-
-  std::fprintf(stderr, "%s: source %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f), pool %lld surfels (%.0f MB)\n",
+  const slam::SurfelSlam& slam = pipeline.slam();
+  std::fprintf(stderr,
+               "%s: source %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f), pool %lld surfels (%.0f MB)\n",
                kCmd, config.source.c_str(), info.intrinsics.width, info.intrinsics.height,
                info.frame_count >= 0 ? std::to_string(info.frame_count).c_str() : "unknown", config.width,
-               config.height, working_k.fx, static_cast<long long>(config.surfel_capacity),
+               config.height, slam.predictor().intrinsics().fx, static_cast<long long>(config.surfel_capacity),
                static_cast<double>(slam.pool_bytes()) / 1e6);
-  if (semantics != nullptr)
-    std::fprintf(stderr, "%s: %s (%.1f MB)\n", kCmd, semantics->describe().c_str(),
-                 static_cast<double>(semantics->bytes()) / 1e6);
+  const int slots = config.threads == 1 ? 1 : config.prepared_slots;
+  std::fprintf(stderr, "%s: %d thread%s (front stage %s, %d prepared slot%s of %.1f MB)%s\n", kCmd, config.threads,
+               config.threads == 1 ? "" : "s", config.threads == 1 ? "on the mapping thread" : "on its own thread",
+               slots, slots == 1 ? "" : "s", static_cast<double>(pipeline.slot_bytes()) / 1e6,
+               info.live ? (", capture thread with " + std::to_string(config.capture_slots) + " slots").c_str() : "");
+  if (pipeline.semantics() != nullptr)
+    std::fprintf(stderr, "%s: %s (%.1f MB)\n", kCmd, pipeline.semantics()->describe().c_str(),
+                 static_cast<double>(pipeline.semantics()->bytes()) / 1e6);
   else
     std::fprintf(stderr, "%s: labels off (geometry only)\n", kCmd);
 
-  Progress progress("run", expected, config.progress);
-  const auto start = std::chrono::steady_clock::now();
-  int64_t frames = 0;
+  panel.set_led(LedPattern::kTracking);
+  const RunOutcome outcome = pipeline.run(panel);
+  panel.finish(outcome.frames);
   int exit_code = 0;
-  slam::SlamFrameResult result;
-  // Live cameras are read on their own thread into a ring of 4 slots (drop-oldest when the mapper
-  // falls behind); recordings are read here and wait for the mapper.
-  std::unique_ptr<CaptureThread> capture;
-  if (info.live) {
-    capture = std::make_unique<CaptureThread>(source, kCaptureSlots);
-    capture->start();
+  if (outcome.error) {
+    // Keep what was already accepted: the trajectory, map and statistics so far are written below.
+    report_error(kCmd, *outcome.error, 1);
+    exit_code = 1;
   }
-  char line[128];
-  int64_t dropped_frames = 0;  // corrupt frames of a live camera, skipped
-  std::chrono::steady_clock::time_point replay_wall_start;  // --realtime: wall time of the first frame
-  double replay_t0 = 0;                                      // and its timestamp, seconds
-  led.set_pattern(LedPattern::kTracking, panel_now_ms());
-  while (config.max_frames < 0 || frames < config.max_frames) {
-    if (gpio.button != nullptr && !panel_failed) {
-      auto pressed = button.poll(panel_now_ms());
-      panel_status(pressed.ok() ? Status::success() : Status(pressed.error()));
-      if (pressed.ok() && *pressed && !button.running()) {
-        std::fprintf(stderr, "\n%s: stop button pressed after %lld frames: stopping, writing the outputs\n", kCmd,
-                     static_cast<long long>(frames));
-        stats.increment(c.stopped_by_button);
-        break;
-      }
-    }
-    if (stop_signal.stop_requested()) {
-      std::fprintf(stderr, "\n%s: %s received after %lld frames: stopping, writing the outputs\n", kCmd,
-                   stop_signal.signal_number() == SIGINT ? "SIGINT" : "SIGTERM", static_cast<long long>(frames));
-      stats.increment(c.stopped_by_signal);
-      break;
-    }
-    ScopedStageTimer t_source(stats, st_source);
-    // A live camera is read by the capture thread; a recording here, waiting for the mapper.
-    CapturedFrame* slot = nullptr;
-    std::optional<Error> source_error;
-    bool have_frame = false;
-    if (capture != nullptr) {
-      slot = capture->acquire(std::chrono::milliseconds(200));
-      if (slot == nullptr) {  // nothing captured yet: look at the stop requests again
-        t_source.cancel();
-        continue;
-      }
-      if (slot->end) source_error = slot->error;
-      have_frame = !slot->end;
-    } else {
-      auto got = source.next(input);
-      if (!got.ok()) source_error = got.error();
-      have_frame = got.ok() && *got;
-    }
-    if (!have_frame) {
-      t_source.cancel();  // only delivered frames count in the stage's timing
-      if (slot != nullptr) capture->release();
-    }
-    if (source_error) {
-      if (is_camera_lost(info, *source_error)) {
-        // A camera that vanished ends capture like a stop: what was mapped so far is written below.
-        std::fprintf(stderr, "%s: %s; capture stopped, writing the outputs of %lld frames\n", kCmd,
-                     source_error->message.c_str(), static_cast<long long>(frames));
-        stats.increment(c.camera_lost);
-        break;
-      }
-      if (info.live && source_error->code == ErrorCode::kCorruptData) {
-        // One bad frame of a live camera: dropped and counted, capture goes on.
-        stats.increment(c.corrupt_frames_dropped);
-        ++dropped_frames;
-        continue;
-      }
-      // Keep what was already accepted: the trajectory, map and statistics so far are written below.
-      report_error(kCmd, *source_error, 1);
-      exit_code = 1;
-      break;
-    }
-    if (!have_frame) break;
-    const Frame& captured = slot != nullptr ? slot->frame : input;
-    t_source.stop();
-    if (config.realtime && !info.live) {
-      // Recorded speed: frame k is processed no earlier than (t_k - t_0) after the first one.
-      if (frames == 0) {
-        replay_wall_start = std::chrono::steady_clock::now();
-        replay_t0 = captured.timestamp;
-      } else {
-        std::this_thread::sleep_until(replay_wall_start +
-                                      std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                          std::chrono::duration<double>(captured.timestamp - replay_t0)));
-      }
-    }
-
-    {
-      ScopedStageTimer t(stats, st_resample);
-      resample_frame(captured, working);
-    }
-    if (slot != nullptr) capture->release();  // the slot is free for the camera again
-    if (Status s = slam.process(working, &result); !s.ok()) {
-      report_error(kCmd, s.error(), 1);
-      exit_code = 1;
-      break;
-    }
-    stats.record_ms(st.preprocess, result.timings.preprocess_ms);
-    if (frames > 0) stats.record_ms(st.track, result.timings.track_ms);  // frame 0 has nothing to track
-    if (result.fused) stats.record_ms(st.fuse, result.timings.fuse_ms);
-    stats.record_ms(st.predict, result.timings.predict_ms);
-    stats.record_ms(st_slam, result.timings.total_ms);
-    if (semantics != nullptr) {
-      if (Status s = semantics->on_frame(frames, working, result, slam); !s.ok()) {
-        report_error(kCmd, s.error(), 1);
-        exit_code = 1;
-        break;
-      }
-    }
-    {
-      ScopedStageTimer t(stats, st_output);
-      Status s;
-      if (result.lost) {
-        std::snprintf(line, sizeof line, "lost %.6f %s", working.timestamp,
-                      slam::track_lost_reason_name(result.track.reason));
-        s = trajectory.write_comment(line);
-      }
-      if (s.ok()) s = trajectory.write(working.timestamp, result.T_world_cam);
-      if (!s.ok()) {
-        report_error(kCmd, s.error(), 1);
-        exit_code = 1;
-        break;
-      }
-    }
-    stats.increment(c.frames);
-    stats.increment(c.frames_with_pose, working.has_pose ? 1 : 0);
-    stats.increment(c.frames_with_labels, working.has_labels ? 1 : 0);
-    stats.increment(c.lost_frames, result.lost ? 1 : 0);
-    stats.increment(c.fused_frames, result.fused ? 1 : 0);
-    ++frames;
-    led.set_pattern(result.lost ? LedPattern::kLost : LedPattern::kTracking, panel_now_ms());
-    if (!panel_failed) panel_status(led.tick(panel_now_ms()));
-    std::snprintf(line, sizeof line, "%s, %lld surfels, %lld lost, %lld dropped", result.lost ? "LOST" : "tracking",
-                  static_cast<long long>(slam.pool().size()), static_cast<long long>(slam.lost_frames()),
-                  static_cast<long long>(dropped_frames + (capture != nullptr ? static_cast<int64_t>(
-                                                                        capture->dropped() + capture->corrupt_dropped())
-                                                                  : 0)));
-    progress.update(frames, line);
-  }
-  if (capture != nullptr) {
-    capture->stop();
-    stats.set_counter(c.frames_dropped_overload, capture->dropped());
-    stats.increment(c.corrupt_frames_dropped, capture->corrupt_dropped());
-  }
-  progress.finish(frames);
   // Writing the outputs: the slow blink until they are on disk, then off.
-  led.set_pattern(LedPattern::kLogging, panel_now_ms());
-  if (!panel_failed) panel_status(led.tick(panel_now_ms()));
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  panel.set_led(LedPattern::kLogging);
+  const OutputFiles files = pipeline.write_outputs(outcome);
+  for (const Error& e : files.errors) report_error(kCmd, e, 1);
+  if (!files.errors.empty()) exit_code = 1;
+  panel.set_led(LedPattern::kOff);
 
-  const slam::SurfelPoolCounters& pc = slam.pool().counters();
-  stats.set_counter(c.surfels_created, pc.created);
-  stats.set_counter(c.surfels_removed, pc.removed);
-  stats.set_counter(c.surfels_evicted, pc.evicted);
-  stats.set_counter(c.surfels_refused, pc.refused);
-
-  bool wrote_trajectory = false, wrote_map = false;
-  if (Status s = trajectory.close(); !s.ok()) {
-    report_error(kCmd, s.error(), 1);
-    exit_code = 1;
-  } else {
-    wrote_trajectory = true;
-  }
-  if (semantics != nullptr) {
-    if (Status s = semantics->finish(slam); !s.ok()) {
-      report_error(kCmd, s.error(), 1);
-      exit_code = 1;
-    }
-  }
-  if (config.write_map) {
-    const std::string comment = "edgefusion map of " + config.source + ", " + std::to_string(frames) + " frames";
-    SurfelCloudView cloud = slam::surfel_cloud_view(slam.pool());
-    if (semantics != nullptr) semantics->add_label_columns(slam.pool(), cloud);
-    if (Status s = write_surfel_ply(map_path, cloud, comment); !s.ok()) {
-      report_error(kCmd, s.error(), 1);
-      exit_code = 1;
-    } else {
-      wrote_map = true;
-    }
-  }
-  const std::vector<StatsExtraField> extra = {
-      {"width", static_cast<double>(config.width)},
-      {"height", static_cast<double>(config.height)},
-      {"surfels", static_cast<double>(slam.pool().size())},
-      {"surfel_capacity", static_cast<double>(slam.pool().capacity())},
-      {"surfel_pool_bytes", static_cast<double>(slam.pool_bytes())},
-      {"bytes_per_surfel", static_cast<double>(slam::SurfelPool::kBytesPerSurfel)}};
-  if (Status s = write_stats_json(stats_path, stats, static_cast<uint64_t>(frames), seconds, extra); !s.ok()) {
-    report_error(kCmd, s.error(), 1);
-    exit_code = 1;
-  }
-
-  led.set_pattern(LedPattern::kOff, panel_now_ms());
-  if (!panel_failed) panel_status(led.tick(panel_now_ms()));
-  std::printf("frames %lld in %.2f s (%.1f fps), lost %lld, surfels %lld\n", static_cast<long long>(frames),
-              seconds, seconds > 0 ? static_cast<double>(frames) / seconds : 0.0,
+  std::printf("frames %lld in %.2f s (%.1f fps), lost %lld, surfels %lld\n", static_cast<long long>(outcome.frames),
+              outcome.seconds, outcome.seconds > 0 ? static_cast<double>(outcome.frames) / outcome.seconds : 0.0,
               static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.pool().size()));
-  if (wrote_trajectory) std::printf("trajectory: %s\n", trajectory_path.c_str());
-  if (wrote_map) std::printf("map: %s\n", map_path.c_str());
-  std::printf("stats: %s\n", stats_path.c_str());
+  if (files.wrote_trajectory) std::printf("trajectory: %s\n", files.trajectory.c_str());
+  if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
+  std::printf("stats: %s\n", files.stats.c_str());
   return exit_code;
 }
 

@@ -39,7 +39,7 @@ constexpr size_t kFrameBytesPerPixel = sizeof(Rgb8) + sizeof(float) + sizeof(uin
 constexpr size_t kLevelBytesPerPixel =  // depth, vertex, normal, intensity, two gradients
     sizeof(float) + 2 * sizeof(Eigen::Vector3f) + 3 * sizeof(float);
 constexpr int kStageSamples = 4096;         // StageStats' default reservoir per stage (core/stage_stats.h)
-constexpr int kRunStages = 8;               // source, resample, preprocess, track, fuse, predict, slam_total, output
+constexpr int kRunStages = 9;  // source, resample, preprocess, front_total, track, fuse, predict, slam_total, mapping_total
 constexpr int kLabelStages = 4;             // segment, label_fuse, label_render, crf (run_semantics)
 constexpr int kTrackerTilePixels = 2048;    // Tracker's row tile (from the .cpp: slam/tracker.cpp)
 constexpr int kLabelFusionIndexScale = 4;   // LabelFusion sizes its pair list for the largest index scale
@@ -80,6 +80,12 @@ Size2 source_size(const std::string& uri_text, std::string* note) {
   }
   note->clear();
   return {wh->first, wh->second};
+}
+
+// Live cameras get a capture ring (firmware_app/capture_thread.h); recordings one frame.
+bool is_live_source(const std::string& uri_text) {
+  auto uri = parse_source_uri(uri_text);
+  return uri.ok() && (uri->scheme == "openni2" || uri->scheme == "v4l2");
 }
 
 // Bytes of a loaded model's arrays (weights and their prepared copies, biases, tables).
@@ -154,12 +160,15 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   const int w = config.width, h = config.height;
   const auto cap = static_cast<size_t>(config.surfel_capacity);
 
-  // Frames (firmware_app/cmd_run.cpp): the source's and the working one, colour + depth + labels.
+  // Frames (firmware_app/run_pipeline.h): a recording's frame at its own size, or the capture ring
+  // of a live camera; colour + depth + labels.
   std::string note;
   const Size2 src = source_size(config.source, &note);
-  add("source frame", px(src.w, src.h) * kFrameBytesPerPixel,
-      size_text(src.w, src.h) + note + " x 8 bytes (colour, depth, labels)");
-  add("working frame", px(w, h) * kFrameBytesPerPixel, size_text(w, h) + " x 8 bytes");
+  const bool live = is_live_source(config.source);
+  const size_t source_frames = live ? static_cast<size_t>(config.capture_slots) : 1;
+  add(live ? "capture ring" : "source frame", source_frames * px(src.w, src.h) * kFrameBytesPerPixel,
+      (live ? std::to_string(source_frames) + " slots x " : std::string()) + size_text(src.w, src.h) + note +
+          " x 8 bytes (colour, depth, labels)");
 
   // SLAM (slam/surfel_slam.h) with the options `run` gives it.
   slam::PreprocessOptions pre;
@@ -167,8 +176,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   slam::FusionOptions fus;
   slam::TrackerOptions trk;
   const int levels = pre.levels;
-  {  // slam/preprocess.h: the pyramid, the cut depth, the padded bilateral input, its weights and rows
-    size_t b = 0;
+  // slam/preprocess.h (Preprocessor::bytes()): the pyramid, the cut depth, the padded bilateral
+  // input, its weights and rows. The SLAM has one, and so has every prepared frame (below).
+  size_t preprocessor_bytes = 0;
+  {
+    size_t& b = preprocessor_bytes;
     for (int l = 0; l < levels; ++l) {
       const Size2 s = level_size(w, h, l);
       b += px(s.w, s.h) * kLevelBytesPerPixel;
@@ -224,6 +236,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   add("stage statistics", static_cast<size_t>(stages + 1) * kStageSamples * sizeof(double),
       std::to_string(stages) + " stages + 1 scratch x " + std::to_string(kStageSamples) + " samples x 8 bytes");
 
+  size_t cnn_result = 0;  // one frame's CNN probabilities and class ids (firmware_app/run_semantics.h)
   if (config.labels) {
     const bool default_model = config.model.empty();
     const std::string model_path = default_model ? default_model_path() : config.model;
@@ -251,7 +264,8 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
         out_px * semantic::kLabelBytes + static_cast<size_t>(w) * kLabelFusionIndexScale * sizeof(int32_t) +
             px(w, h) * kLabelFusionIndexScale * kLabelFusionIndexScale * sizeof(kernels::LabelUpdatePair),
         "16 bytes per CNN pixel + 16 pairs x 8 bytes per working pixel");
-    add("label images", 2 * px(w, h), "CNN fallback + rendering, " + size_text(w, h) + " x 1 byte");
+    cnn_result = out_px * static_cast<size_t>(classes) * sizeof(float) + px(w, h);
+    add("label rendering", px(w, h), "the map's labels, " + size_text(w, h) + " x 1 byte");
     add("map.ply class columns", cap * (sizeof(uint8_t) + sizeof(float)), "5 bytes (class id, probability) x capacity");
     if (config.crf_every > 0 || config.crf_final) {
       // semantic/dense_crf.h: capacity x kBytesPerSurfel + lattice vertices x kBytesPerVertex, where
@@ -270,6 +284,14 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
               std::to_string(vertices) + " lattice vertices x about " +
               std::to_string(semantic::DenseCrf::kBytesPerVertex) + " (semantic/dense_crf.h)");
     }
+  }
+
+  {  // Prepared frames (firmware_app/front_stage.h): per slot the working frame, its preprocessor
+     // and, with labels, the CNN's probabilities and class ids. threads = 1 uses one slot.
+    const size_t slots = config.threads == 1 ? 1 : static_cast<size_t>(config.prepared_slots);
+    add("prepared frames", slots * (px(w, h) * kFrameBytesPerPixel + preprocessor_bytes + cnn_result),
+        std::to_string(slots) + " slots x (working frame " + size_text(w, h) + " + pyramids" +
+            (config.labels ? " + CNN result" : "") + ")");
   }
 
   for (const MemoryPart& p : plan.parts) plan.total_bytes += p.bytes;

@@ -58,6 +58,16 @@ constexpr OptionDoc kOptions[] = {
     {"crf.every", "crf_every", "frames between dense CRF runs over the map, 0 = off; default 0 (paper: 500)"},
     {"crf.final", "crf_final", "one dense CRF over the map at the end of the run; default false"},
     {"crf.iterations", "crf_iterations", "mean-field iterations per CRF run, 1..100; default 10"},
+    {"pipeline.threads", "threads",
+     "1 = front stage (read, resample, preprocess, CNN) and mapping take turns on one thread; 2 = the "
+     "front stage on its own thread; same outputs; default 2"},
+    {"pipeline.prepared_slots", "", "prepared frames between the front and the mapping stage, 2..16; default 3"},
+    {"pipeline.capture_slots", "",
+     "live cameras: frames waiting between capture and the front stage, 2..64 (full: the oldest is dropped, "
+     "counted); default 4"},
+    {"pipeline.front_cpu", "", "CPU core the front stage's thread is pinned to, -1 = not pinned; default -1"},
+    {"pipeline.mapping_cpu", "", "CPU core the mapping thread is pinned to, -1 = not pinned; default -1"},
+    {"pipeline.capture_cpu", "", "CPU core a live camera's capture thread is pinned to, -1 = not pinned; default -1"},
     {"memory.budget_mb", "memory_budget_mb",
      "MB (10^6 bytes), 1..1000000: a run refuses to start when its memory plan is larger; default 256"},
     {"gpio.led_chip", "", "status LED's GPIO chip (name, /dev path, number or label); default none (no LED)"},
@@ -70,7 +80,7 @@ constexpr OptionDoc kOptions[] = {
     {"gpio.optional", "", "a missing chip or line is a warning and the run goes on without it; default false"},
 };
 
-constexpr const char* kSections[] = {"mapping", "labels", "crf", "memory", "gpio"};
+constexpr const char* kSections[] = {"mapping", "labels", "crf", "pipeline", "memory", "gpio"};
 
 bool is_section(const std::string& name) {
   for (const char* s : kSections)
@@ -162,6 +172,12 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "crf.every") return std::to_string(c.crf_every);
   if (path == "crf.final") return bool_text(c.crf_final);
   if (path == "crf.iterations") return std::to_string(c.crf_iterations);
+  if (path == "pipeline.threads") return std::to_string(c.threads);
+  if (path == "pipeline.prepared_slots") return std::to_string(c.prepared_slots);
+  if (path == "pipeline.capture_slots") return std::to_string(c.capture_slots);
+  if (path == "pipeline.front_cpu") return std::to_string(c.front_cpu);
+  if (path == "pipeline.mapping_cpu") return std::to_string(c.mapping_cpu);
+  if (path == "pipeline.capture_cpu") return std::to_string(c.capture_cpu);
   if (path == "memory.budget_mb") return std::to_string(c.memory_budget_mb);
   if (path == "gpio.led_chip") return c.gpio.led.chip.empty() ? "" : quoted(c.gpio.led.chip);
   if (path == "gpio.led_line") return std::to_string(c.gpio.led.offset);
@@ -368,6 +384,21 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     auto v = parse_integer(value, 1, 100'000'000);
     if (!v.ok()) return bad("is not an integer in 1..100000000");
     config.surfel_capacity = *v;
+  } else if (path.rfind("pipeline.", 0) == 0) {
+    const bool cpu = path.size() > 4 && path.compare(path.size() - 4, 4, "_cpu") == 0;
+    const long long lo = cpu ? -1 : path == "pipeline.threads" ? 1 : 2;
+    const long long hi = cpu ? 1023 : path == "pipeline.threads" ? 2 : path == "pipeline.prepared_slots" ? 16 : 64;
+    auto v = parse_integer(value, lo, hi);
+    if (!v.ok())
+      return bad("is not an integer in " + std::to_string(lo) + ".." + std::to_string(hi) +
+                 (cpu ? " (a CPU core, -1 = not pinned)" : ""));
+    const int n = static_cast<int>(*v);
+    if (path == "pipeline.threads") config.threads = n;
+    else if (path == "pipeline.prepared_slots") config.prepared_slots = n;
+    else if (path == "pipeline.capture_slots") config.capture_slots = n;
+    else if (path == "pipeline.front_cpu") config.front_cpu = n;
+    else if (path == "pipeline.mapping_cpu") config.mapping_cpu = n;
+    else config.capture_cpu = n;
   } else if (path == "memory.budget_mb") {
     auto v = parse_integer(value, 1, 1'000'000);
     if (!v.ok()) return bad("is not an integer in 1..1000000 (MB)");
@@ -440,6 +471,7 @@ const std::vector<OptionSpec>& config_override_options() {
       {"--crf-final", "", "dense CRF over the whole map once at the end, before map.ply is written"},
       {"--crf-iterations", "N", "mean-field iterations per CRF run, 1..100; default 10"},
       {"--memory-budget-mb", "MB", "refuse to start when the memory plan exceeds this, MB; default 256"},
+      {"--threads", "N", "1 = front stage and mapping take turns on one thread; 2 = front stage on its own; default 2"},
   };
   return specs;
 }
@@ -449,7 +481,8 @@ Result<RunConfig> config_from_args(const ParsedArgs& args) {
   if (args.has("--config")) EF_RETURN_IF_ERROR(apply_config_file(args.get("--config"), config));
   // Option --x-y overrides the flat key x_y.
   for (const char* key : {"source", "resolution", "frames", "out", "surfel_capacity", "model", "label_every",
-                          "labels_out", "labels_out_every", "crf_every", "crf_iterations", "memory_budget_mb"}) {
+                          "labels_out", "labels_out_every", "crf_every", "crf_iterations", "memory_budget_mb",
+                          "threads"}) {
     std::string opt = std::string("--") + key;
     for (char& ch : opt)
       if (ch == '_') ch = '-';

@@ -28,13 +28,6 @@
 
 namespace ef::app {
 
-// GpioOptions as a run starts from: no lines, the button active low (a push button to ground).
-inline GpioOptions default_gpio_options() {
-  GpioOptions g;
-  g.button.active_low = true;
-  return g;
-}
-
 struct RunConfig {
   std::string source = "synthetic:";  // source URI (see `edgefusion --help`)
   int width = 320;                    // working resolution, pixels (tracking and label fusion)
@@ -63,10 +56,22 @@ struct RunConfig {
   int crf_every = 0;                    // dense CRF over the map every M frames; 0 = off (paper: 500)
   bool crf_final = false;               // one dense CRF over the map at the end of the run
   int crf_iterations = 10;              // mean-field iterations per CRF run (1..100; paper: 10)
+  // Threads, section `pipeline` (firmware_app/run_pipeline.h).
+  int threads = 2;          // 1: the front stage (read, resample, preprocess, CNN) and the mapping
+                            // stage take turns on one thread (deterministic order); 2: the front
+                            // stage runs on a thread of its own, a frame ahead. The outputs are the
+                            // same either way. A live camera always has its capture thread too.
+  int prepared_slots = 3;   // prepared frames between the front and the mapping stage (2..16); the
+                            // front waits for a free one, so nothing is dropped there
+  int capture_slots = 4;    // live cameras: frames between the capture thread and the front stage
+                            // (2..64); when full the oldest waiting frame is dropped and counted
+  int front_cpu = -1;       // CPU core each thread is pinned to (0..cores-1); -1 = not pinned
+  int mapping_cpu = -1;
+  int capture_cpu = -1;
   // Fixed memory, section `memory` (firmware_app/memory_plan.h).
   // Front panel (platform/devices/gpio.h): status LED and start/stop button; none by default. The
   // button is wired to ground (active low) unless the file says otherwise.
-  GpioOptions gpio = default_gpio_options();
+  GpioOptions gpio;
   int64_t memory_budget_mb = 256;       // a run refuses to start when its memory plan exceeds this,
                                         // MB = 10^6 bytes (1..1,000,000)
 
@@ -95,7 +100,7 @@ std::vector<std::string> config_keys();
 // Command-line options that override configuration keys, shared by `run` and `plan`: --config,
 // --source, --resolution, --frames, --out, --quiet, --model, --no-labels, --label-every,
 // --labels-out, --labels-out-every, --crf-every, --crf-final, --crf-iterations, --surfel-capacity,
-// --memory-budget-mb.
+// --memory-budget-mb, --threads.
 const std::vector<OptionSpec>& config_override_options();
 
 // Builds the configuration of a command line parsed with config_override_options(): defaults, then

@@ -1,5 +1,7 @@
 #include "run_semantics.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
@@ -58,7 +60,6 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& conf
     s->crf_ = std::make_unique<semantic::DenseCrf>(std::move(*crf));
   }
 
-  s->cnn_labels_.allocate(working.width, working.height);
   s->rendered_.allocate(working.width, working.height);
   s->class_id_.assign(static_cast<std::size_t>(config.surfel_capacity), 0);
   s->class_prob_.assign(static_cast<std::size_t>(config.surfel_capacity), 0.0f);
@@ -104,23 +105,57 @@ std::string RunSemantics::describe() const {
 
 std::size_t RunSemantics::bytes() const {
   std::size_t b = segmenter_->buffer_bytes() + class_id_.size() * (sizeof(uint8_t) + sizeof(float)) +
-                  2 * static_cast<std::size_t>(rendered_.width()) * static_cast<std::size_t>(rendered_.height());
+                  static_cast<std::size_t>(rendered_.width()) * static_cast<std::size_t>(rendered_.height());
   if (crf_ != nullptr) b += crf_->bytes();
   return b;
 }
 
-Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, const slam::SlamFrameResult& result,
-                              slam::SurfelSlam& slam) {
+std::size_t RunSemantics::cnn_result_bytes() const {
+  return segmenter_->probabilities().floats() * sizeof(float) +
+         static_cast<std::size_t>(rendered_.width()) * static_cast<std::size_t>(rendered_.height());
+}
+
+bool RunSemantics::cnn_due(int64_t frame_number) const {
+  return fusion_->due(frame_number) || (!config_.labels_out.empty() && frame_number % config_.labels_out_every == 0);
+}
+
+void RunSemantics::allocate(CnnResult& out) const {
+  const semantic::ProbabilityView p = segmenter_->probabilities();
+  out.probabilities.assign(p.floats(), 0.0f);
+  out.width = p.width;
+  out.height = p.height;
+  out.classes = p.classes;
+  out.labels.allocate(rendered_.width(), rendered_.height());
+  out.valid = false;
+}
+
+Status RunSemantics::segment(const Frame& working, CnnResult& out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  out.valid = false;
+  EF_RETURN_IF_ERROR(segmenter_->segment(working, out.labels.view()));
+  const semantic::ProbabilityView p = segmenter_->probabilities();
+  if (p.floats() != out.probabilities.size())
+    return error(ErrorCode::kInvalidArgument, "segment: the CNN result slot was not sized by RunSemantics::allocate");
+  std::copy(p.data, p.data + p.floats(), out.probabilities.begin());
+  out.segment_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  out.valid = true;
+  return Status::success();
+}
+
+Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, const CnnResult& cnn,
+                              const slam::SlamFrameResult& result, slam::SurfelSlam& slam) {
   const bool fuse_now = !result.lost && fusion_->due(frame_number);
   const bool write_now = !config_.labels_out.empty() && frame_number % config_.labels_out_every == 0;
-  if (fuse_now || write_now) {
-    ScopedStageTimer t(*stats_, st_segment_);
-    EF_RETURN_IF_ERROR(segmenter_->segment(working, cnn_labels_.view()));
+  if ((fuse_now || write_now) && !cnn.valid)
+    return error(ErrorCode::kInvalidArgument,
+                 "labels: frame " + std::to_string(frame_number) + " needs the CNN's result and has none");
+  if (cnn.valid) {
+    stats_->record_ms(st_segment_, cnn.segment_ms);  // measured on the front stage
     stats_->increment(c_cnn_frames_);
   }
   if (fuse_now) {
     ScopedStageTimer t(*stats_, st_fuse_);
-    auto counts = fusion_->fuse(slam.predictor().index_map(), segmenter_->probabilities(), slam.pool_for_labels(),
+    auto counts = fusion_->fuse(slam.predictor().index_map(), cnn.view(), slam.pool_for_labels(),
                                 config_.label_visibility ? working.depth.view() : ImageView<const float>());
     if (!counts.ok()) return counts.take_error();
     stats_->increment(c_surfel_updates_, static_cast<uint64_t>(counts->surfels_updated));
@@ -130,7 +165,7 @@ Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, const 
   if (crf_ != nullptr && config_.crf_every > 0 && frame_number > 0 && frame_number % config_.crf_every == 0) {
     EF_RETURN_IF_ERROR(run_crf(slam));
   }
-  if (write_now) EF_RETURN_IF_ERROR(write_rendering(working, result, slam));
+  if (write_now) EF_RETURN_IF_ERROR(write_rendering(working, cnn, result, slam));
   return Status::success();
 }
 
@@ -150,14 +185,14 @@ Status RunSemantics::run_crf(slam::SurfelSlam& slam) {
   return Status::success();
 }
 
-Status RunSemantics::write_rendering(const Frame& working, const slam::SlamFrameResult& result,
+Status RunSemantics::write_rendering(const Frame& working, const CnnResult& cnn, const slam::SlamFrameResult& result,
                                      slam::SurfelSlam& slam) {
   ScopedStageTimer t(*stats_, st_render_);
   if (result.lost) {
     // The prediction still shows the last good pose: the CNN's own prediction is all we have.
-    rendered_.copy_from(cnn_labels_.view());
+    rendered_.copy_from(cnn.labels.view());
   } else {
-    auto r = semantic::render_labels(slam.predictor(), slam.pool(), cnn_labels_.view(), rendered_.view(),
+    auto r = semantic::render_labels(slam.predictor(), slam.pool(), cnn.labels.view(), rendered_.view(),
                                      config_.label_visibility ? working.depth.view() : ImageView<const float>());
     if (!r.ok()) return r.take_error();
   }

@@ -1,16 +1,22 @@
-// The semantic half of `edgefusion run` (SemanticFusion, McCormac et al. ICRA 2017): after the
-// surfel SLAM has processed a frame,
-//   every label_every-th frame   the CNN segments the working frame (semantic/segmenter.h) and its
-//                                probabilities multiply into every surfel the new index map shows
-//                                (semantic/label_fusion.h); lost frames are not fused;
-//   every crf_every-th frame     the dense CRF over the whole map (semantic/dense_crf.h), if on;
-//   every labels_out_every-th    the map's labels rendered into the frame's view, with the CNN's own
-//                                prediction where no labelled surfel is seen (semantic/label_render.h),
-//                                written as DIR/<frame name>.png (class ids) for `eval labels`;
-//   at the end                   the CRF once more if crf_final; map.ply's class columns.
-// Memory: create() allocates everything (segmenter, fusion buffers, CRF lattice, the rendered and
-// fallback images, the class columns of map.ply); on_frame() allocates only inside libpng when it
-// writes a label image.
+// The semantic half of `edgefusion run` (SemanticFusion, McCormac et al. ICRA 2017), in two parts
+// that run on different threads of the pipeline (firmware_app/run_pipeline.h):
+//   front stage, segment()       every label_every-th frame (and every frame whose label image is
+//                                due) the CNN segments the working frame (semantic/segmenter.h) into
+//                                a CnnResult that travels with the frame; segmentation needs no pose,
+//                                so it runs before the frame is tracked
+//   mapping stage, on_frame()    after the surfel SLAM tracked the frame: its CNN probabilities
+//                                multiply into every surfel the new index map shows at the frame's
+//                                pose (semantic/label_fusion.h); lost frames are not fused;
+//                                every crf_every-th frame the dense CRF over the map (semantic/dense_crf.h);
+//                                every labels_out_every-th frame the map's labels rendered into the
+//                                frame's view, with the CNN's own prediction where no labelled surfel
+//                                is seen (semantic/label_render.h), written as DIR/<frame name>.png
+//   at the end, finish()         the CRF once more if crf_final; map.ply's class columns.
+// Memory: create() allocates everything (segmenter, fusion buffers, CRF lattice, the rendered image,
+// the class columns of map.ply); allocate() sizes each CnnResult slot once; segment() and on_frame()
+// allocate only inside libpng when a label image is written.
+// Threads: segment() uses only the segmenter and may run on one thread while on_frame() runs on
+// another; each of them on one thread at a time.
 #pragma once
 
 #include <cstdint>
@@ -36,6 +42,16 @@ namespace ef::app {
 // SurfelSlam map): shared by RunSemantics and the memory plan (memory_plan.h).
 semantic::DenseCrfOptions run_crf_options(const RunConfig& config);
 
+// The CNN's result for one frame, carried with the frame from the front stage to the mapping stage.
+struct CnnResult {
+  bool valid = false;                // the CNN ran on this frame
+  std::vector<float> probabilities;  // output height x width x classes (semantic::ProbabilityView)
+  int width = 0, height = 0, classes = 0;
+  Image<uint8_t> labels;             // its class ids at the working size (the rendering's fallback)
+  double segment_ms = 0;             // time the CNN took, milliseconds
+  semantic::ProbabilityView view() const { return {probabilities.data(), height, width, classes}; }
+};
+
 class RunSemantics {
  public:
   // Loads the model (config.model or the shipped one), sizes every buffer for `working` and a pool
@@ -44,9 +60,18 @@ class RunSemantics {
   static Result<std::unique_ptr<RunSemantics>> create(const RunConfig& config, const Intrinsics& working,
                                                       StageStats& stats);
 
-  // After slam.process(frame) of frame number `frame_number` (0-based count of processed frames).
-  Status on_frame(int64_t frame_number, const Frame& working, const slam::SlamFrameResult& result,
-                  slam::SurfelSlam& slam);
+  // Front stage: whether the CNN runs on frame `frame_number` (0-based count of frames delivered):
+  // a label update or a label image is due.
+  bool cnn_due(int64_t frame_number) const;
+  // Sizes `out` for this model and working size (start-up; allocates).
+  void allocate(CnnResult& out) const;
+  // Front stage: segments `working` (the working size) into `out` (sized by allocate()).
+  Status segment(const Frame& working, CnnResult& out);
+
+  // Mapping stage, after slam.process() of frame `frame_number`; `cnn` is that frame's result
+  // (valid on the frames cnn_due() named).
+  Status on_frame(int64_t frame_number, const Frame& working, const CnnResult& cnn,
+                  const slam::SlamFrameResult& result, slam::SurfelSlam& slam);
   // At the end of the run, before the map is written: the final CRF if asked for.
   Status finish(slam::SurfelSlam& slam);
   // Fills `view`'s class_id and class_prob columns from the pool's label store.
@@ -55,10 +80,13 @@ class RunSemantics {
   // "model edgefusion-seg.efm (160x120 -> 14 classes), labels every 10 frames, CRF off" for the log.
   std::string describe() const;
   std::size_t bytes() const;  // everything create() allocated (for the memory line)
+  // Bytes allocate() gives one CnnResult.
+  std::size_t cnn_result_bytes() const;
 
  private:
   RunSemantics() = default;
-  Status write_rendering(const Frame& working, const slam::SlamFrameResult& result, slam::SurfelSlam& slam);
+  Status write_rendering(const Frame& working, const CnnResult& cnn, const slam::SlamFrameResult& result,
+                         slam::SurfelSlam& slam);
   Status run_crf(slam::SurfelSlam& slam);
 
   RunConfig config_;
@@ -66,7 +94,6 @@ class RunSemantics {
   std::unique_ptr<semantic::Segmenter> segmenter_;
   std::unique_ptr<semantic::LabelFusion> fusion_;
   std::unique_ptr<semantic::DenseCrf> crf_;  // null when neither crf_every nor crf_final
-  Image<uint8_t> cnn_labels_;                // the CNN's class ids at the working size (fallback)
   Image<uint8_t> rendered_;                  // the map's labels at the working size
   std::vector<uint8_t> class_id_;            // map.ply columns, one per pool slot
   std::vector<float> class_prob_;

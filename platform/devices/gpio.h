@@ -54,8 +54,10 @@ Result<std::unique_ptr<GpioInputLine>> open_gpio_input(const GpioLineConfig& con
 // GPIO of the robot's front panel.
 struct GpioOptions {
   GpioLineConfig led;       // status LED; unused when led.chip is empty (default)
-  GpioLineConfig button;    // start/stop push button; unused when button.chip is empty (default)
-  bool button_pull_up = true;  // bias the button line up (button wired to ground, use active_low)
+  // Start/stop push button; unused when button.chip is empty (default). Active low by default: a
+  // push button wired to ground, its line biased up (button_pull_up), reads low when pressed.
+  GpioLineConfig button{std::string(), 0, /*active_low=*/true};
+  bool button_pull_up = true;  // bias the button line up (the default wiring above)
   int debounce_ms = 30;     // a button level must hold this long, milliseconds, to count (default 30)
   bool optional = false;    // true: a missing chip or line is a warning and the run goes on
                             // without that line; false (default): it is an error

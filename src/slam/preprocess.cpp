@@ -60,6 +60,16 @@ std::string PreprocessOptions::describe() const {
   return buf;
 }
 
+std::size_t Preprocessor::bytes() const {
+  const auto b = [](const auto& image) { return image.size() * sizeof(*image.data()); };
+  std::size_t total = b(raw_depth_) + b(padded_) + b(spatial_weights_) + b(row_weight_) + b(row_sum_);
+  for (int l = 0; l < options_.levels; ++l) {
+    const PyramidLevel& p = levels_[l];
+    total += b(p.depth) + b(p.vertex) + b(p.normal) + b(p.intensity) + b(p.grad_x) + b(p.grad_y);
+  }
+  return total;
+}
+
 Result<Preprocessor> Preprocessor::create(const Intrinsics& working, const PreprocessOptions& options) {
   EF_RETURN_IF_ERROR(options.validate());
   if (!working.valid()) return error(ErrorCode::kInvalidArgument, "preprocess: invalid working intrinsics");

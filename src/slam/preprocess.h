@@ -113,6 +113,8 @@ class Preprocessor {
   const PreprocessTimings& timings() const { return timings_; }
   const PreprocessOptions& options() const { return options_; }
   const Intrinsics& intrinsics() const { return levels_[0].intrinsics; }
+  // Bytes create() allocated: the levels' images and the filter's buffers (the memory plan).
+  std::size_t bytes() const;
 
  private:
   Preprocessor() = default;

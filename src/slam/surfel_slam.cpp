@@ -67,21 +67,47 @@ float SurfelSlam::tracking_min_confidence() const {
   return std::min(options_.prediction.stable_confidence, ramp);
 }
 
+Result<Preprocessor> SurfelSlam::make_preprocessor() const {
+  return Preprocessor::create(pre_.intrinsics(), options_.preprocess);
+}
+
 Status SurfelSlam::process(const Frame& frame, SlamFrameResult* result) {
+  const Clock::time_point t_start = Clock::now();
+  EF_RETURN_IF_ERROR(pre_.process(frame));
+  const double preprocess_ms = ms_since(t_start);
+  EF_RETURN_IF_ERROR(track_fuse_predict(frame, pre_, result));
+  result->timings.preprocess_ms = preprocess_ms;
+  result->timings.total_ms = ms_since(t_start);
+  return Status::success();
+}
+
+Status SurfelSlam::process(const Frame& frame, const Preprocessor& preprocessed, SlamFrameResult* result) {
+  const Intrinsics& k = pre_.intrinsics();
+  const Intrinsics& p = preprocessed.intrinsics();
+  if (p.width != k.width || p.height != k.height || preprocessed.levels() != pre_.levels())
+    return error(ErrorCode::kInvalidArgument,
+                 "slam: preprocessed frame is " + std::to_string(p.width) + "x" + std::to_string(p.height) + " with " +
+                     std::to_string(preprocessed.levels()) + " levels; the SLAM works at " + std::to_string(k.width) +
+                     "x" + std::to_string(k.height) + " with " + std::to_string(pre_.levels()));
+  if (frame.depth.width() != k.width || frame.depth.height() != k.height)
+    return error(ErrorCode::kInvalidArgument, "slam: frame is " + std::to_string(frame.depth.width()) + "x" +
+                                                  std::to_string(frame.depth.height()) + "; the SLAM works at " +
+                                                  std::to_string(k.width) + "x" + std::to_string(k.height));
+  return track_fuse_predict(frame, preprocessed, result);
+}
+
+Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pre, SlamFrameResult* result) {
   const Clock::time_point t_start = Clock::now();
   *result = SlamFrameResult{};
   const auto frame_index = static_cast<int32_t>(frames_);
-
-  Clock::time_point t0 = Clock::now();
-  EF_RETURN_IF_ERROR(pre_.process(frame));
-  result->timings.preprocess_ms = ms_since(t0);
+  Clock::time_point t0;
 
   // Track against the model predicted at the last good pose (none for the first frame).
   SE3 T_world_cur = T_world_last_;
   if (fused_frames_ > 0) {
     const SE3 guess = options_.constant_velocity_guess ? last_motion_ : SE3();
     t0 = Clock::now();
-    EF_RETURN_IF_ERROR(tracker_.track(predictor_.pyramid_view(), pyramid_view(pre_), guess, &result->track));
+    EF_RETURN_IF_ERROR(tracker_.track(predictor_.pyramid_view(), pyramid_view(pre), guess, &result->track));
     result->timings.track_ms = ms_since(t0);
     if (result->track.lost) {
       result->lost = true;
@@ -98,7 +124,7 @@ Status SurfelSlam::process(const Frame& frame, SlamFrameResult* result) {
   if (!result->lost) {
     // Fuse through the index map rendered at the last good pose, then predict at the new pose.
     t0 = Clock::now();
-    EF_RETURN_IF_ERROR(fusion_.fuse(pre_, frame.color.view(), T_world_cur, predictor_.index_map(), frame_index,
+    EF_RETURN_IF_ERROR(fusion_.fuse(pre, frame.color.view(), T_world_cur, predictor_.index_map(), frame_index,
                                     &pool_, &result->fusion));
     result->timings.fuse_ms = ms_since(t0);
     result->fused = true;

@@ -75,6 +75,14 @@ class SurfelSlam {
   // Processes one frame at the working resolution (depth in metres, colour optional).
   // Errors (kInvalidArgument): a frame of another size. Lost tracking is not an error.
   Status process(const Frame& frame, SlamFrameResult* result);
+  // The same for a frame whose pyramids `preprocessed` already holds (it processed `frame` last):
+  // preprocessing needs nothing from the map, so a pipeline runs it on another thread, ahead of
+  // tracking, with a Preprocessor of its own per frame slot (made by make_preprocessor()). The
+  // result's timings.preprocess_ms is then 0. Errors (kInvalidArgument): a frame or a preprocessor
+  // of another size or level count.
+  Status process(const Frame& frame, const Preprocessor& preprocessed, SlamFrameResult* result);
+  // A Preprocessor with this SLAM's intrinsics and options, for process(frame, preprocessed, ...).
+  Result<Preprocessor> make_preprocessor() const;
 
   const SurfelPool& pool() const { return pool_; }
   // The pool for the semantic layer (semantic/label_fusion.h, the dense CRF), which writes only the
@@ -91,6 +99,8 @@ class SurfelSlam {
   std::size_t pool_bytes() const { return pool_.bytes(); }
 
  private:
+  Status track_fuse_predict(const Frame& frame, const Preprocessor& pre, SlamFrameResult* result);
+
   SurfelSlam(SurfelSlamOptions options, Preprocessor pre, Tracker tracker, ModelPredictor predictor,
              SurfelFusion fusion, SurfelPool pool)
       : options_(std::move(options)),

@@ -15,6 +15,9 @@
 #include "firmware_app/memory_plan.h"
 #include "firmware_app/model_paths.h"
 #include "firmware_app/run_config.h"
+#include "firmware_app/run_pipeline.h"
+#include "sources/open_source.h"
+#include "core/stage_stats.h"
 #include "firmware_app/run_semantics.h"
 #include "semantic/dense_crf.h"
 #include "semantic/segmenter.h"
@@ -59,6 +62,12 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.crf_final, b.crf_final);
   EXPECT_EQ(a.crf_iterations, b.crf_iterations);
   EXPECT_EQ(a.memory_budget_mb, b.memory_budget_mb);
+  EXPECT_EQ(a.threads, b.threads);
+  EXPECT_EQ(a.prepared_slots, b.prepared_slots);
+  EXPECT_EQ(a.capture_slots, b.capture_slots);
+  EXPECT_EQ(a.front_cpu, b.front_cpu);
+  EXPECT_EQ(a.mapping_cpu, b.mapping_cpu);
+  EXPECT_EQ(a.capture_cpu, b.capture_cpu);
   EXPECT_EQ(a.gpio.led.chip, b.gpio.led.chip);
   EXPECT_EQ(a.gpio.led.offset, b.gpio.led.offset);
   EXPECT_EQ(a.gpio.led.active_low, b.gpio.led.active_low);
@@ -206,6 +215,11 @@ TEST(ConfigYaml, EveryErrorNamesFileLineKeyAndValue) {
       {"mapping: {surfel_capacity: 10\nresolution: 320x240\n", {"test.yaml", "line", "YAML syntax error"}},
       {"resolution: 320x240\n  bad indentation: 1\n", {"test.yaml", "line 2", "YAML syntax error"}},
       {"- a\n- b\n", {"test.yaml", "line 1", "key: value"}},
+      {"pipeline: {threads: 3}\n", {"line 1", "'pipeline.threads'", "'3'", "1..2"}},
+      {"threads: 0\n", {"'threads'", "'0'", "1..2"}},
+      {"pipeline:\n  prepared_slots: 1\n", {"line 2", "'pipeline.prepared_slots'", "2..16"}},
+      {"pipeline: {capture_slots: 65}\n", {"'pipeline.capture_slots'", "65", "2..64"}},
+      {"pipeline: {front_cpu: -2}\n", {"'pipeline.front_cpu'", "-2", "not pinned"}},
   };
   for (const BadCase& bc : cases) {
     RunConfig c;
@@ -270,6 +284,12 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.crf_final = true;
   c.crf_iterations = 100;
   c.memory_budget_mb = 1024;
+  c.threads = 1;
+  c.prepared_slots = 16;
+  c.capture_slots = 2;
+  c.front_cpu = 3;
+  c.mapping_cpu = 0;
+  c.capture_cpu = 1023;
   c.gpio.led.chip = "pinctrl-bcm2711";
   c.gpio.led.offset = 17;
   c.gpio.led.active_low = true;
@@ -333,9 +353,9 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
   }
   EXPECT_EQ(plan->total_bytes, sum);
   EXPECT_EQ(plan->budget_bytes, 256u * 1000 * 1000);
-  for (const char* part : {"source frame", "working frame", "slam preprocessing", "slam tracker", "surfel pool",
+  for (const char* part : {"source frame", "prepared frames", "slam preprocessing", "slam tracker", "surfel pool",
                            "model prediction", "surfel fusion scratch", "stage statistics", "cnn model", "cnn arena",
-                           "cnn packed weights", "segmenter buffers", "label fusion", "label images",
+                           "cnn packed weights", "segmenter buffers", "label fusion", "label rendering",
                            "map.ply class columns"})
     EXPECT_GT(plan->bytes_of(part), 0u) << part << " missing in\n" << plan->table();
   EXPECT_EQ(plan->bytes_of("dense crf"), 0u);  // off by default
@@ -379,6 +399,19 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   EXPECT_EQ(plan->bytes_of("cnn arena"), (*seg)->executor().arena_bytes());
   EXPECT_GE(plan->bytes_of("cnn packed weights"), (*seg)->executor().packed_bytes());
   EXPECT_LE(plan->bytes_of("cnn packed weights"), (*seg)->executor().packed_bytes() + 64);
+
+  // The pipeline's prepared slots and the SLAM's preprocessor, as `run` creates them.
+  RunConfig with_out = c;
+  with_out.out_dir = test::scratch_dir("plan-pipeline").string();
+  auto source = open_source(c.source);
+  ASSERT_TRUE(source.ok());
+  StageStats stats;
+  auto pipeline = RunPipeline::create(with_out, **source, stats);
+  ASSERT_TRUE(pipeline.ok()) << to_string(pipeline.error());
+  EXPECT_EQ(plan->bytes_of("prepared frames"), static_cast<std::size_t>(c.prepared_slots) * (*pipeline)->slot_bytes());
+  auto pre = slam->make_preprocessor();
+  ASSERT_TRUE(pre.ok());
+  EXPECT_EQ(plan->bytes_of("slam preprocessing"), pre->bytes());
 
   auto crf = semantic::DenseCrf::create(run_crf_options(c));  // the options `run` creates it with
   ASSERT_TRUE(crf.ok()) << to_string(crf.error());

@@ -47,12 +47,15 @@ TEST(RunSemanticsZeroAlloc, SegmentFuseAndRenderAllocateNothingPerFrame) {
   frame.allocate(K.width, K.height, true);
   slam::SlamFrameResult result;
   Image<uint8_t> rendered(K.width, K.height);
+  app::CnnResult cnn;
+  (*sem)->allocate(cnn);
   uint64_t allocations = 0;
   for (int i = 0; i < 10; ++i) {
     ASSERT_TRUE(*(*source)->next(frame));
     test::AllocationCounter count;  // the source's rendering is not part of the path
     ASSERT_TRUE(slam->process(frame, &result).ok());
-    ASSERT_TRUE((*sem)->on_frame(i, frame, result, *slam).ok());
+    ASSERT_TRUE((*sem)->segment(frame, cnn).ok());
+    ASSERT_TRUE((*sem)->on_frame(i, frame, cnn, result, *slam).ok());
     // The rendering --labels-out writes (the PNG encoder itself is outside the per-frame path).
     ASSERT_TRUE(semantic::render_labels(slam->predictor(), slam->pool(), {}, rendered.view(), frame.depth.view()).ok());
     if (i >= 3) allocations += count.thread_allocations();  // frames 0-2: warm-up (dispatch choices)

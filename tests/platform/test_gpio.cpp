@@ -15,6 +15,17 @@ std::string first_gpio_chip() {
   return {};
 }
 
+// The front panel's usual wiring is the default: the LED drives its pin high, the push button pulls
+// its biased-up pin to ground (active low), so a configuration names only chips and lines.
+TEST(Gpio, DefaultsMatchAButtonToGroundAndAnLedDrivenHigh) {
+  const GpioOptions options;
+  EXPECT_FALSE(options.led.used());
+  EXPECT_FALSE(options.button.used());
+  EXPECT_FALSE(options.led.active_low);
+  EXPECT_TRUE(options.button.active_low);
+  EXPECT_TRUE(options.button_pull_up);
+}
+
 TEST(Gpio, MissingChipIsAnErrorNamingIt) {
   GpioLineConfig config;
   config.chip = "gpiochip-edgefusion-test-missing";
@@ -42,7 +53,6 @@ TEST(Gpio, RequiredLinesFailOptionalLinesWarn) {
   GpioOptions options;
   options.led.chip = "gpiochip-missing-led";
   options.button.chip = "gpiochip-missing-button";
-  options.button.active_low = true;
   auto required = open_gpio_lines(options);
   ASSERT_FALSE(required.ok());
   EXPECT_NE(required.error().message.find("status LED"), std::string::npos) << required.error().message;

@@ -1,0 +1,17 @@
+// Pinning a thread to one CPU core (Linux sched_setaffinity), so that the pipeline's threads
+// (firmware_app/run_pipeline.h) do not migrate between the cores of a small board and compete with
+// each other's caches. Optional everywhere: -1 means "let the kernel choose".
+#pragma once
+
+#include <string>
+
+namespace ef {
+
+// Cores this process may run on (its affinity mask at start-up), at least 1.
+int available_cpu_cores();
+
+// Pins the calling thread to core `cpu` (0-based). Returns an empty string on success, else why
+// not: "core 5 does not exist (this machine has cores 0..3)" or the system's error text.
+std::string pin_current_thread_to_cpu(int cpu);
+
+}  // namespace ef
