@@ -1,68 +1,25 @@
-// crf_rows for AVX2: one 16-float row is two ymm. Separate VMULPS and VADDPS in the reference's
-// order (no FMA, although this level has it).
+// crf_rows for AVX2: one 16-float row is two ymm, separate VMULPS and VADDPS in the reference's order
+// (no FMA, although this level has it); the loops are kernels/crf_rows_simd.h.
 #include <immintrin.h>
 
-#include "kernels/crf_rows_variants.h"
+#include "kernels/crf_rows_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-constexpr int V = kCrfRowFloats;
-constexpr int K = kCrfSimplex;
-// Prefetch distance (points): rows are scattered over a lattice larger than L2, but points come in
-// spatial order, so the rows a few points ahead are the ones to fetch.
-constexpr std::size_t kPrefetch = 4;
-
-void prefetch_rows(const float* rows, const uint32_t* v) {
-  for (int k = 0; k < K; ++k) _mm_prefetch(reinterpret_cast<const char*>(rows + std::size_t(v[k]) * V), _MM_HINT_T0);
-}
-
-void slice(const float* rows, const uint32_t* vertices, const uint16_t* weights, std::size_t points, float* out) {
-  for (std::size_t p = 0; p < points; ++p) {
-    if (p + kPrefetch < points) prefetch_rows(rows, vertices + (p + kPrefetch) * K);
-    const uint32_t* v = vertices + p * K;
-    const uint16_t* w = weights + p * K;
-    __m256 a0 = _mm256_setzero_ps(), a1 = _mm256_setzero_ps();
-    for (int k = 0; k < K; ++k) {
-      const float* r = rows + std::size_t(v[k]) * V;
-      const __m256 wk = _mm256_set1_ps(float(w[k]));
-      a0 = _mm256_add_ps(a0, _mm256_mul_ps(wk, _mm256_loadu_ps(r)));
-      a1 = _mm256_add_ps(a1, _mm256_mul_ps(wk, _mm256_loadu_ps(r + 8)));
-    }
-    _mm256_storeu_ps(out + p * V, a0);
-    _mm256_storeu_ps(out + p * V + 8, a1);
-  }
-}
-
-void splat(float* rows, const uint32_t* vertices, const uint16_t* weights, std::size_t points, const float* in) {
-  for (std::size_t p = 0; p < points; ++p) {
-    if (p + kPrefetch < points) prefetch_rows(rows, vertices + (p + kPrefetch) * K);
-    const uint32_t* v = vertices + p * K;
-    const uint16_t* w = weights + p * K;
-    const __m256 x0 = _mm256_loadu_ps(in + p * V), x1 = _mm256_loadu_ps(in + p * V + 8);
-    for (int k = 0; k < K; ++k) {
-      float* r = rows + std::size_t(v[k]) * V;
-      const __m256 wk = _mm256_set1_ps(float(w[k]));
-      _mm256_storeu_ps(r, _mm256_add_ps(_mm256_loadu_ps(r), _mm256_mul_ps(wk, x0)));
-      _mm256_storeu_ps(r + 8, _mm256_add_ps(_mm256_loadu_ps(r + 8), _mm256_mul_ps(wk, x1)));
-    }
-  }
-}
-
-void blur(const float* in, float* out, const uint32_t* neighbours, std::size_t begin, std::size_t end) {
-  const __m256 half = _mm256_set1_ps(0.5f), quarter = _mm256_set1_ps(0.25f);
-  for (std::size_t v = begin; v < end; ++v) {
-    const float* m = in + std::size_t(neighbours[2 * v]) * V;
-    const float* p = in + std::size_t(neighbours[2 * v + 1]) * V;
-    const float* c = in + v * V;
-    for (int h = 0; h < V; h += 8)
-      _mm256_storeu_ps(out + v * V + h,
-                       _mm256_add_ps(_mm256_mul_ps(half, _mm256_loadu_ps(c + h)),
-                                     _mm256_mul_ps(quarter, _mm256_add_ps(_mm256_loadu_ps(m + h), _mm256_loadu_ps(p + h)))));
-  }
-}
+struct Y8 {
+  using R = __m256;
+  static constexpr int kLanes = 8;
+  static R zero() { return _mm256_setzero_ps(); }
+  static R set1(float x) { return _mm256_set1_ps(x); }
+  static R load(const float* p) { return _mm256_loadu_ps(p); }
+  static void store(float* p, R v) { _mm256_storeu_ps(p, v); }
+  static R add(R a, R b) { return _mm256_add_ps(a, b); }
+  static R mul(R a, R b) { return _mm256_mul_ps(a, b); }
+  static void prefetch(const float* p) { _mm_prefetch(reinterpret_cast<const char*>(p), _MM_HINT_T0); }
+};
 }  // namespace
 
-const CrfRowsKernel crf_rows__avx2 = {&slice, &splat, &blur};
+const CrfRowsKernel crf_rows__avx2 = crf_rows_kernel<Y8>();
 
 }  // namespace ef::kernels

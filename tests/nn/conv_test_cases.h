@@ -83,6 +83,45 @@ inline std::string describe(const Case& c) {
          ", " + std::to_string(c.out_max) + "]";
 }
 
+using Variant = kernels::KernelVariant<ConvKernelPtr>;
+
+// conv2d_i8_ref's output for `l` over rows [oy_begin, oy_end) (-1 = to the end); bytes of the other
+// rows keep the sentinel 0x5A.
+inline std::vector<int8_t> reference_output(const Layer& l, int oy_begin, int oy_end) {
+  std::vector<int8_t> want(std::size_t(l.oh) * l.ow * l.c.cout, int8_t(0x5A));
+  ConvArgs a = args_of(l, want.data());
+  a.oy_begin = oy_begin; a.oy_end = oy_end;
+  conv2d_i8_ref(a);
+  return want;
+}
+
+// Packs and runs `v` on `l` over rows [oy_begin, oy_end) into a buffer of sentinel bytes and compares
+// it, byte for byte, with `want` (reference_output of the same layer and rows): rows outside the
+// range must keep their sentinels. Stops at the first differing byte (a fatal failure).
+inline void expect_matches_reference(const Variant& v, const Layer& l, int oy_begin, int oy_end,
+                                     const std::vector<int8_t>& want) {
+  const ConvShape shape{l.c.cin, l.c.cout, l.c.kh, l.c.kw, l.c.in_zp};
+  const ConvParams params{l.weights.data(), l.bias.data(), l.rq.data()};
+  Blob blob = aligned_blob(v.fn->packed_bytes(shape));
+  v.fn->pack(shape, params, blob.get());
+  std::vector<int8_t> got(want.size(), int8_t(0x5A));
+  ConvArgs a = args_of(l, got.data());
+  a.packed = blob.get();
+  a.oy_begin = oy_begin; a.oy_end = oy_end;
+  v.fn->run(a);
+  for (std::size_t i = 0; i < want.size(); ++i) {
+    ASSERT_EQ(int(got[i]), int(want[i])) << v.name << " differs from conv2d_i8_ref at byte " << i << " (pixel "
+                                         << i / l.c.cout << ", channel " << i % l.c.cout << ") for "
+                                         << describe(l.c) << ", rows [" << oy_begin << ", " << oy_end << ")";
+  }
+}
+
+// The same, against a reference computed here (callers that test several variants on one layer
+// compute it once and pass it).
+inline void expect_matches_reference(const Variant& v, const Layer& l, int oy_begin, int oy_end) {
+  expect_matches_reference(v, l, oy_begin, oy_end, reference_output(l, oy_begin, oy_end));
+}
+
 // The cases, each family with its own seed, each through `check(layer, oy_begin, oy_end)` (rows
 // [oy_begin, oy_end), -1 = to the end). A family stops at the first fatal failure.
 using ConvCheck = std::function<void(const Layer&, int, int)>;

@@ -34,33 +34,7 @@ namespace {
 
 #if defined(__x86_64__)
 
-using Variant = kernels::KernelVariant<ConvKernelPtr>;
-
 using namespace conv_test;
-
-// Runs `v` on `l` over rows [oy_begin, oy_end) and compares with the reference; rows outside the
-// range must keep their sentinel bytes.
-void expect_matches_reference(const Variant& v, const Layer& l, int oy_begin = 0, int oy_end = -1) {
-  const std::size_t out_bytes = std::size_t(l.oh) * l.ow * l.c.cout;
-  std::vector<int8_t> want(out_bytes, int8_t(0x5A));
-  ConvArgs ra = args_of(l, want.data());
-  ra.oy_begin = oy_begin; ra.oy_end = oy_end;
-  conv2d_i8_ref(ra);
-  const ConvShape shape{l.c.cin, l.c.cout, l.c.kh, l.c.kw, l.c.in_zp};
-  const ConvParams params{l.weights.data(), l.bias.data(), l.rq.data()};
-  Blob blob = aligned_blob(v.fn->packed_bytes(shape));
-  v.fn->pack(shape, params, blob.get());
-  std::vector<int8_t> got(out_bytes, int8_t(0x5A));
-  ConvArgs a = args_of(l, got.data());
-  a.packed = blob.get();
-  a.oy_begin = oy_begin; a.oy_end = oy_end;
-  v.fn->run(a);
-  for (std::size_t i = 0; i < out_bytes; ++i) {
-    ASSERT_EQ(int(got[i]), int(want[i])) << v.name << " differs from conv2d_i8_ref at byte " << i << " (pixel "
-                                         << i / l.c.cout << ", channel " << i % l.c.cout << ") for "
-                                         << describe(l.c) << ", rows [" << oy_begin << ", " << oy_end << ")";
-  }
-}
 
 const Variant* find_row(const char* name) {
   for (const auto& v : kConvI8Variants)

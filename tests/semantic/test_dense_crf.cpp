@@ -167,6 +167,22 @@ slam::SurfelPool make_pool(const std::vector<TestSurfel>& surfels, int64_t capac
   return std::move(*pool);
 }
 
+// A CRF test's starting point: the pool made from a map, the label bytes it starts with (runs that
+// fail or leave surfels out must not change them) and default options sized for it (capacity = its
+// surfels), for the test to adjust before DenseCrf::create.
+struct CrfMap {
+  slam::SurfelPool pool;
+  std::vector<uint8_t> before;
+  DenseCrfOptions o;
+};
+
+CrfMap make_crf_map(const std::vector<TestSurfel>& surfels) {
+  CrfMap m{make_pool(surfels), {}, {}};
+  m.before.assign(m.pool.labels(), m.pool.labels() + m.pool.size() * kLabelBytes);
+  m.o.capacity = m.pool.size();
+  return m;
+}
+
 std::vector<float> decoded(const slam::SurfelPool& pool, int64_t i) {
   std::vector<float> probs(kLabelClasses);
   decode_labels(pool.labels() + i * kLabelBytes, probs.data());
@@ -325,9 +341,7 @@ TEST(DenseCrf, FixesAnIsolatedWrongLabel) {
       const bool centre = a == 7 && b == 7;
       map.push_back({{a * 0.01f, b * 0.01f, 1.0f}, {0, 0, 1}, {120, 118, 115}, peaked(centre ? 12 : 4, 0.6f)});
     }
-  slam::SurfelPool pool = make_pool(map);
-  DenseCrfOptions o;
-  o.capacity = pool.size();
+  auto [pool, before, o] = make_crf_map(map);
   auto crf = DenseCrf::create(o);
   ASSERT_TRUE(crf.ok());
   ASSERT_TRUE(crf->run(pool).ok());
@@ -353,9 +367,7 @@ std::vector<TestSurfel> floor_and_strip() {
 TEST(DenseCrf, DoesNotBleedAcrossColourAndNormalEdges) {
   const std::vector<TestSurfel> map = floor_and_strip();
   {
-    slam::SurfelPool pool = make_pool(map);
-    DenseCrfOptions o;
-    o.capacity = pool.size();
+    auto [pool, before, o] = make_crf_map(map);
     auto crf = DenseCrf::create(o);
     ASSERT_TRUE(crf.ok());
     ASSERT_TRUE(crf->run(pool).ok());
@@ -363,9 +375,7 @@ TEST(DenseCrf, DoesNotBleedAcrossColourAndNormalEdges) {
       EXPECT_EQ(label_argmax(pool.labels() + i * kLabelBytes), argmax(map[std::size_t(i)].probs)) << i;
   }
   {
-    slam::SurfelPool pool = make_pool(map);
-    DenseCrfOptions blind;
-    blind.capacity = pool.size();
+    auto [pool, before, blind] = make_crf_map(map);
     blind.bilateral_theta_color = 1e4f;
     blind.spatial_theta_normal = 1e3f;
     auto crf = DenseCrf::create(blind);
@@ -407,9 +417,7 @@ TEST(DenseCrf, InvalidOptionsAreRejected) {
 
 TEST(DenseCrf, PoolLargerThanCapacityIsAnErrorAndLeavesLabels) {
   const std::vector<TestSurfel> map = floor_and_strip();
-  slam::SurfelPool pool = make_pool(map);
-  std::vector<uint8_t> before(pool.labels(), pool.labels() + pool.size() * kLabelBytes);
-  DenseCrfOptions o;
+  auto [pool, before, o] = make_crf_map(map);
   o.capacity = 100;
   auto crf = DenseCrf::create(o);
   ASSERT_TRUE(crf.ok());
@@ -423,10 +431,7 @@ TEST(DenseCrf, PoolLargerThanCapacityIsAnErrorAndLeavesLabels) {
 TEST(DenseCrf, NonFinitePositionIsAnError) {
   std::vector<TestSurfel> map = floor_and_strip();
   map[10].p[1] = std::nanf("");
-  slam::SurfelPool pool = make_pool(map);
-  std::vector<uint8_t> before(pool.labels(), pool.labels() + pool.size() * kLabelBytes);
-  DenseCrfOptions o;
-  o.capacity = pool.size();
+  auto [pool, before, o] = make_crf_map(map);
   auto crf = DenseCrf::create(o);
   ASSERT_TRUE(crf.ok());
   auto r = crf->run(pool);
@@ -439,10 +444,7 @@ TEST(DenseCrf, NonFinitePositionIsAnError) {
 TEST(DenseCrf, MapTooLargeForTheLatticeKeysIsAnError) {
   std::vector<TestSurfel> map = floor_and_strip();
   map[5].p[0] = 1e4f;  // 10 km from the rest: 200,000 theta_alpha
-  slam::SurfelPool pool = make_pool(map);
-  std::vector<uint8_t> before(pool.labels(), pool.labels() + pool.size() * kLabelBytes);
-  DenseCrfOptions o;
-  o.capacity = pool.size();
+  auto [pool, before, o] = make_crf_map(map);
   auto crf = DenseCrf::create(o);
   ASSERT_TRUE(crf.ok());
   auto r = crf->run(pool);
@@ -454,10 +456,7 @@ TEST(DenseCrf, MapTooLargeForTheLatticeKeysIsAnError) {
 
 TEST(DenseCrf, FullLatticeLeavesSurfelsOutAndCountsThem) {
   const std::vector<TestSurfel> map = floor_and_strip();  // 304 surfels
-  slam::SurfelPool pool = make_pool(map);
-  std::vector<uint8_t> before(pool.labels(), pool.labels() + pool.size() * kLabelBytes);
-  DenseCrfOptions o;
-  o.capacity = pool.size();
+  auto [pool, before, o] = make_crf_map(map);
   o.max_lattice_vertices = 40;
   auto crf = DenseCrf::create(o);
   ASSERT_TRUE(crf.ok());

@@ -28,6 +28,28 @@ slam::SurfelPool make_pool(int n) {
   return std::move(*pool);
 }
 
+// What a fuse needs: a LabelFusion for a W x H working image and a Wc x Hc CNN output (still to be
+// checked with ok()), a pool of `surfels` surfels with uniform labels, and an index map of `scale`
+// index pixels per working pixel along each axis with no surfel in any cell.
+struct FusionMap {
+  Result<LabelFusion> fusion;
+  slam::SurfelPool pool;
+  slam::IndexMap index;
+};
+
+FusionMap make_fusion_map(int W, int H, int Wc, int Hc, int scale, int surfels) {
+  LabelFusionOptions opt;
+  opt.working_width = W;
+  opt.working_height = H;
+  opt.cnn_width = Wc;
+  opt.cnn_height = Hc;
+  FusionMap m{LabelFusion::create(opt), make_pool(surfels), {}};
+  m.index.scale = scale;
+  m.index.id.allocate(W * scale, H * scale);
+  m.index.id.fill(-1);
+  return m;
+}
+
 // CNN probabilities whose pixel (x, y) prefers class (x + 3 y) % 14 with p 0.87 (0.01 elsewhere).
 std::vector<float> cnn_probs(int w, int h) {
   std::vector<float> p(std::size_t(w) * std::size_t(h) * kLabelClasses, 0.01f);
@@ -37,18 +59,9 @@ std::vector<float> cnn_probs(int w, int h) {
 }
 
 void check_fuse(int W, int H, int Wc, int Hc, int scale) {
-  LabelFusionOptions opt;
-  opt.working_width = W;
-  opt.working_height = H;
-  opt.cnn_width = Wc;
-  opt.cnn_height = Hc;
-  auto fusion = LabelFusion::create(opt);
+  FusionMap m = make_fusion_map(W, H, Wc, Hc, scale, 40);
+  auto& [fusion, pool, index] = m;
   ASSERT_TRUE(fusion.ok());
-  slam::SurfelPool pool = make_pool(40);
-  slam::IndexMap index;
-  index.scale = scale;
-  index.id.allocate(W * scale, H * scale);
-  index.id.fill(-1);
   // Surfels 0..29 at scattered cells (each once); 30..39 invisible.
   std::vector<std::pair<int, int>> cell(30);
   for (int i = 0; i < 30; ++i) {
@@ -84,18 +97,9 @@ TEST(LabelFusion, UpdatesExactlyTheVisibleSurfelsNonIntegerRatio) { check_fuse(1
 TEST(LabelFusion, UpdatesExactlyTheVisibleSurfelsScaleOne) { check_fuse(9, 8, 9, 8, 1); }
 
 TEST(LabelFusion, RejectsMismatchedInputsAndLeavesThePool) {
-  LabelFusionOptions opt;
-  opt.working_width = 4;
-  opt.working_height = 4;
-  opt.cnn_width = 2;
-  opt.cnn_height = 2;
-  auto fusion = LabelFusion::create(opt);
+  FusionMap m = make_fusion_map(4, 4, 2, 2, 1, 2);
+  auto& [fusion, pool, index] = m;
   ASSERT_TRUE(fusion.ok());
-  slam::SurfelPool pool = make_pool(2);
-  slam::IndexMap index;
-  index.scale = 1;
-  index.id.allocate(4, 4);
-  index.id.fill(-1);
   index.id(0, 0) = 0;
   index.id(3, 3) = 5;  // outside the pool
   const std::vector<float> probs = cnn_probs(2, 2);
@@ -141,18 +145,9 @@ TEST(LabelFusion, LabelsTravelWithSurfels) {
 // With the measured depth, only surfels at that depth take the CNN's label: one behind the surface
 // (its centre in a cell the nearer surfels left free) and one on a pixel without depth do not.
 TEST(LabelFusion, DepthTestSkipsHiddenSurfelsAndPixelsWithoutDepth) {
-  LabelFusionOptions opt;
-  opt.working_width = 4;
-  opt.working_height = 2;
-  opt.cnn_width = 4;
-  opt.cnn_height = 2;
-  auto fusion = LabelFusion::create(opt);
+  FusionMap m = make_fusion_map(4, 2, 4, 2, 2, 3);
+  auto& [fusion, pool, index] = m;
   ASSERT_TRUE(fusion.ok());
-  slam::SurfelPool pool = make_pool(3);
-  slam::IndexMap index;
-  index.scale = 2;
-  index.id.allocate(8, 4);
-  index.id.fill(-1);
   index.depth.allocate(8, 4);
   index.id(0, 0) = 0;  // working pixel (0, 0): on the surface (2.00 m vs 2.02 measured)
   index.depth(0, 0) = 2.0f;
