@@ -26,6 +26,8 @@ constexpr int kMaxWindow = kMaxScale + 2 * kMaxMargin;
 constexpr uint32_t kMaxEpoch = (1u << 28) - 1;
 constexpr uint8_t kGreyLevel = 128;  // colour of new surfels when the frame has none
 constexpr int kPrefetchAhead = 32;   // index pixels (128 bytes) ahead of a window row
+// Working pixels ahead whose candidates' per-surfel data is prefetched (see scan_window).
+constexpr int kSurfelPrefetchPixels = 3;
 
 bool finite_positive(float v) { return std::isfinite(v) && v > 0.0f; }
 
@@ -312,6 +314,30 @@ void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, co
     if (bx0 + kPrefetchAhead < iw) {
       __builtin_prefetch(ids + bx0 + kPrefetchAhead);
       __builtin_prefetch(depths + bx0 + kPrefetchAhead);
+    }
+    // The surfels a pixel visits sit anywhere in the pool (ids follow creation order, not space),
+    // so every column of a candidate is a cache miss once the pool outgrows the caches: about
+    // half of fuse() at 470k surfels went into the first loads of the state, the normal and the
+    // picked surfel's radius. The pixel kSurfelPrefetchPixels to the right
+    // visits nearly the same rows kSurfelPrefetchPixels x scale cells further on: fetch its
+    // candidates' data now, so it has arrived when that pixel is scanned. Only hints: no result
+    // depends on them.
+    const int ahead = bx0 + kSurfelPrefetchPixels * scale_;
+    for (int bx = std::max(ahead, 0); bx < std::min(ahead + scale_, iw); ++bx) {
+      const int32_t id = ids[bx];
+      if (id < 0 || id >= fc.pool_size) continue;
+      __builtin_prefetch(&state_[id]);
+      __builtin_prefetch(pool.nx() + id);
+      __builtin_prefetch(pool.ny() + id);
+      __builtin_prefetch(pool.nz() + id);
+      __builtin_prefetch(pool.confidence() + id);
+      // What fuse_sample() then reads and writes of the surfel the pixel picks.
+      __builtin_prefetch(pool.radius() + id);
+      __builtin_prefetch(pool.x() + id);
+      __builtin_prefetch(pool.y() + id);
+      __builtin_prefetch(pool.z() + id);
+      __builtin_prefetch(pool.color() + id);
+      __builtin_prefetch(pool.last_seen() + id);
     }
     for (int bx = std::max(bx0, 0); bx < std::min(bx1, iw); ++bx)
       visit_cell(fc, pool, px, ids[bx], depths[bx], bx, by, true, ws, st);
