@@ -52,7 +52,9 @@
 
 namespace ef::semantic {
 
-// 64-byte aligned arrays of trivial types (a 16-float value row is one cache line).
+// 64-byte aligned arrays of trivial types (a 16-float value row is one cache line), zero-filled:
+// touching every page at start-up makes the CRF's memory resident when the run starts, as the
+// memory plan says, rather than at its first run mid-mission.
 struct AlignedDelete {
   void operator()(void* p) const { ::operator delete(p, std::align_val_t(64)); }
 };
@@ -60,7 +62,10 @@ template <class T>
 using AlignedArray = std::unique_ptr<T[], AlignedDelete>;
 template <class T>
 AlignedArray<T> make_aligned_array(std::size_t n) {
-  return AlignedArray<T>(static_cast<T*>(::operator new((n > 0 ? n : 1) * sizeof(T), std::align_val_t(64))));
+  const std::size_t bytes = (n > 0 ? n : 1) * sizeof(T);
+  void* p = ::operator new(bytes, std::align_val_t(64));
+  std::memset(p, 0, bytes);
+  return AlignedArray<T>(static_cast<T*>(p));
 }
 
 class PermutohedralLattice {
