@@ -55,6 +55,11 @@ TEST(Cli, UnknownOptionsAndBadValuesNameTheOption) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--out"), std::string::npos) << r.err;
 
+  r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--threads", "3"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--threads"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1..2"), std::string::npos) << r.err;
+
   r = cli({"eval", "rpe", "a.txt", "b.txt"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--delta-frames"), std::string::npos) << r.err;
@@ -111,7 +116,8 @@ TEST(Cli, RunSyntheticWritesTrajectoryAndStats) {
   EXPECT_NE(stats.find("\"width\":160"), std::string::npos) << stats;
   for (const char* key : {"\"seconds\"", "\"fps\"", "\"stages\"", "\"median_ms\"", "\"p95_ms\"", "\"counters\"",
                           "\"track\"", "\"fuse\"", "\"predict\"", "\"lost_frames\"", "\"surfels_refused\"",
-                          "\"surfels_evicted\"", "\"bytes_per_surfel\":60"})
+                          "\"surfels_evicted\"", "\"bytes_per_surfel\":60", "\"threads\":2", "\"front_total\"",
+                          "\"mapping_total\"", "\"peak_rss_bytes\"", "\"frames_dropped_overload\":0"})
     EXPECT_NE(stats.find(key), std::string::npos) << key << " missing in " << stats;
 
   // The map: a PLY that reads back with surfels in it.
