@@ -181,9 +181,12 @@ int cmd_run(int argc, char** argv) {
                config.height, slam.predictor().intrinsics().fx, static_cast<long long>(config.surfel_capacity),
                static_cast<double>(slam.pool_bytes()) / 1e6);
   const int slots = config.threads == 1 ? 1 : config.prepared_slots;
-  std::fprintf(stderr, "%s: %d thread%s (front stage %s, %d prepared slot%s of %.1f MB)%s\n", kCmd, config.threads,
-               config.threads == 1 ? "" : "s", config.threads == 1 ? "on the mapping thread" : "on its own thread",
-               slots, slots == 1 ? "" : "s", static_cast<double>(pipeline.slot_bytes()) / 1e6,
+  const char* layout = config.threads == 1   ? "front, CNN and mapping in turn on one thread"
+                       : config.threads == 2 ? "front + CNN beside mapping"
+                                             : "front, CNN and mapping each on its own";
+  std::fprintf(stderr, "%s: %d thread%s (%s), %d frame slot%s of %.1f MB%s\n", kCmd, config.threads,
+               config.threads == 1 ? "" : "s", layout, slots, slots == 1 ? "" : "s",
+               static_cast<double>(pipeline.slot_bytes()) / 1e6,
                info.live ? (", capture thread with " + std::to_string(config.capture_slots) + " slots").c_str() : "");
   if (pipeline.semantics() != nullptr)
     std::fprintf(stderr, "%s: %s (%.1f MB)\n", kCmd, pipeline.semantics()->describe().c_str(),

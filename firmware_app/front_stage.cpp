@@ -101,12 +101,20 @@ FrontStage::Step FrontStage::step(PreparedFrame& slot) {
 
   slot.number = delivered_;
   t0 = SteadyClock::now();
-  Status s = slot.pre->process(slot.working);
+  const Status s = slot.pre->process(slot.working);
   slot.preprocess_ms = ms_since(t0);
-  if (s.ok() && semantics_ != nullptr && semantics_->cnn_due(slot.number)) s = semantics_->segment(slot.working, slot.cnn);
   if (!s.ok()) return end(slot, s.error());
   ++delivered_;
   return Step::kFrame;
+}
+
+void FrontStage::segment(PreparedFrame& slot) {
+  slot.cnn.valid = false;
+  if (slot.end || semantics_ == nullptr || !semantics_->cnn_due(slot.number)) return;
+  if (Status s = semantics_->segment(slot.working, slot.cnn); !s.ok()) {
+    slot.end = true;
+    slot.error = s.error();
+  }
 }
 
 }  // namespace ef::app

@@ -6,14 +6,16 @@
 //                 --realtime); stops after max_frames
 //   resample      to the working resolution (io/frame_resample.h)
 //   preprocess    depth filter and pyramids (slam/preprocess.h), with the slot's own Preprocessor
-//   segment       the CNN on the frames RunSemantics::cnn_due() names (firmware_app/run_semantics.h)
+//   segment       segment(): the CNN on the frames RunSemantics::cnn_due() names
+//                 (firmware_app/run_semantics.h), on the front thread or a thread of its own
 //
 // The result is a PreparedFrame slot; the mapping stage takes it from there. Because nothing here
-// reads the map, the front stage can run a frame or more ahead of mapping on its own thread, and the
-// outputs are the same as when both stages take turns on one thread.
+// reads the map, these steps can run ahead of mapping on other threads, and the outputs are the
+// same as when every step takes its turn on one thread.
 //
-// Memory: allocate() sizes a slot once (working frame, pyramids, CNN result); step() allocates
-// nothing. Threads: step() on one thread at a time; request_stop() and the counters from any thread.
+// Memory: allocate() sizes a slot once (working frame, pyramids, CNN result); step() and segment()
+// allocate nothing. Threads: step() on one thread at a time, segment() on one thread at a time (the
+// same or another); request_stop() and the counters from any thread.
 #pragma once
 
 #include <atomic>
@@ -70,6 +72,9 @@ class FrontStage {
     kEnd,         // `slot` is the end marker (slot.end; slot.error when the source failed)
   };
   Step step(PreparedFrame& slot);
+  // The CNN on `slot` when its frame is due (nothing for an end marker or without labels). A failure
+  // turns the slot into an end marker carrying the error, so that mapping stops there.
+  void segment(PreparedFrame& slot);
 
   // Asks the stage to end: a live camera's capture thread stops, and the frames it had already
   // captured still come out before the end marker; a recording ends at the next step(). Any thread.

@@ -59,13 +59,14 @@ constexpr OptionDoc kOptions[] = {
     {"crf.final", "crf_final", "one dense CRF over the map at the end of the run; default false"},
     {"crf.iterations", "crf_iterations", "mean-field iterations per CRF run, 1..100; default 10"},
     {"pipeline.threads", "threads",
-     "1 = front stage (read, resample, preprocess, CNN) and mapping take turns on one thread; 2 = the "
-     "front stage on its own thread; same outputs; default 2"},
-    {"pipeline.prepared_slots", "", "prepared frames between the front and the mapping stage, 2..16; default 3"},
+     "1 = front (read, resample, preprocess), CNN and mapping take turns on one thread; 2 = front + CNN "
+     "beside mapping; 3 = each on its own thread; same outputs; default 2"},
+    {"pipeline.prepared_slots", "", "frames in flight between front, CNN and mapping, 2..16; default 3"},
     {"pipeline.capture_slots", "",
      "live cameras: frames waiting between capture and the front stage, 2..64 (full: the oldest is dropped, "
      "counted); default 4"},
     {"pipeline.front_cpu", "", "CPU core the front stage's thread is pinned to, -1 = not pinned; default -1"},
+    {"pipeline.cnn_cpu", "", "CPU core the CNN's thread (threads: 3) is pinned to, -1 = not pinned; default -1"},
     {"pipeline.mapping_cpu", "", "CPU core the mapping thread is pinned to, -1 = not pinned; default -1"},
     {"pipeline.capture_cpu", "", "CPU core a live camera's capture thread is pinned to, -1 = not pinned; default -1"},
     {"memory.budget_mb", "memory_budget_mb",
@@ -176,6 +177,7 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "pipeline.prepared_slots") return std::to_string(c.prepared_slots);
   if (path == "pipeline.capture_slots") return std::to_string(c.capture_slots);
   if (path == "pipeline.front_cpu") return std::to_string(c.front_cpu);
+  if (path == "pipeline.cnn_cpu") return std::to_string(c.cnn_cpu);
   if (path == "pipeline.mapping_cpu") return std::to_string(c.mapping_cpu);
   if (path == "pipeline.capture_cpu") return std::to_string(c.capture_cpu);
   if (path == "memory.budget_mb") return std::to_string(c.memory_budget_mb);
@@ -387,7 +389,7 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
   } else if (path.rfind("pipeline.", 0) == 0) {
     const bool cpu = path.size() > 4 && path.compare(path.size() - 4, 4, "_cpu") == 0;
     const long long lo = cpu ? -1 : path == "pipeline.threads" ? 1 : 2;
-    const long long hi = cpu ? 1023 : path == "pipeline.threads" ? 2 : path == "pipeline.prepared_slots" ? 16 : 64;
+    const long long hi = cpu ? 1023 : path == "pipeline.threads" ? 3 : path == "pipeline.prepared_slots" ? 16 : 64;
     auto v = parse_integer(value, lo, hi);
     if (!v.ok())
       return bad("is not an integer in " + std::to_string(lo) + ".." + std::to_string(hi) +
@@ -397,6 +399,7 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     else if (path == "pipeline.prepared_slots") config.prepared_slots = n;
     else if (path == "pipeline.capture_slots") config.capture_slots = n;
     else if (path == "pipeline.front_cpu") config.front_cpu = n;
+    else if (path == "pipeline.cnn_cpu") config.cnn_cpu = n;
     else if (path == "pipeline.mapping_cpu") config.mapping_cpu = n;
     else config.capture_cpu = n;
   } else if (path == "memory.budget_mb") {
@@ -471,7 +474,7 @@ const std::vector<OptionSpec>& config_override_options() {
       {"--crf-final", "", "dense CRF over the whole map once at the end, before map.ply is written"},
       {"--crf-iterations", "N", "mean-field iterations per CRF run, 1..100; default 10"},
       {"--memory-budget-mb", "MB", "refuse to start when the memory plan exceeds this, MB; default 256"},
-      {"--threads", "N", "1 = front stage and mapping take turns on one thread; 2 = front stage on its own; default 2"},
+      {"--threads", "N", "1 = every step on one thread; 2 = front + CNN beside mapping; 3 = each its own; default 2"},
   };
   return specs;
 }

@@ -56,16 +56,17 @@ struct RunConfig {
   int crf_every = 0;                    // dense CRF over the map every M frames; 0 = off (paper: 500)
   bool crf_final = false;               // one dense CRF over the map at the end of the run
   int crf_iterations = 10;              // mean-field iterations per CRF run (1..100; paper: 10)
-  // Threads, section `pipeline` (firmware_app/run_pipeline.h).
-  int threads = 2;          // 1: the front stage (read, resample, preprocess, CNN) and the mapping
-                            // stage take turns on one thread (deterministic order); 2: the front
-                            // stage runs on a thread of its own, a frame ahead. The outputs are the
-                            // same either way. A live camera always has its capture thread too.
-  int prepared_slots = 3;   // prepared frames between the front and the mapping stage (2..16); the
-                            // front waits for a free one, so nothing is dropped there
-  int capture_slots = 4;    // live cameras: frames between the capture thread and the front stage
+  // Threads, section `pipeline` (firmware_app/run_pipeline.h). The outputs are the same in every mode.
+  int threads = 2;          // 1: every step (front: read, resample, preprocess; the CNN; mapping)
+                            // takes its turn on one thread (deterministic order); 2: front and CNN on
+                            // one thread, mapping on another; 3: front, CNN and mapping each on its
+                            // own. A live camera always has its capture thread too.
+  int prepared_slots = 3;   // frames in flight between the steps (2..16); a step waits for the one
+                            // before it, so nothing is dropped there
+  int capture_slots = 4;    // live cameras: frames between the capture thread and the front step
                             // (2..64); when full the oldest waiting frame is dropped and counted
   int front_cpu = -1;       // CPU core each thread is pinned to (0..cores-1); -1 = not pinned
+  int cnn_cpu = -1;
   int mapping_cpu = -1;
   int capture_cpu = -1;
   // Fixed memory, section `memory` (firmware_app/memory_plan.h).

@@ -20,6 +20,9 @@ namespace {
 // again, and how long the front thread waits for a free slot before it looks at its own.
 constexpr std::chrono::milliseconds kPoll(200);
 
+// The steps every prepared slot passes through, in order (StageRing stages).
+constexpr int kFront = 0, kSegment = 1, kMapping = 2, kStages = 3;
+
 void pin_or_warn(int cpu, const char* thread_name) {
   if (cpu < 0) return;
   const std::string why = pin_current_thread_to_cpu(cpu);
@@ -42,6 +45,7 @@ std::size_t frame_bytes(const Frame& f) {
 Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config, FrameSource& source,
                                                          StageStats& stats) {
   for (const auto& [key, cpu] : {std::pair<const char*, int>{"pipeline.front_cpu", config.front_cpu},
+                                 {"pipeline.cnn_cpu", config.cnn_cpu},
                                  {"pipeline.mapping_cpu", config.mapping_cpu},
                                  {"pipeline.capture_cpu", config.capture_cpu}}) {
     const unsigned cores = std::thread::hardware_concurrency();
@@ -70,19 +74,14 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   if (!front.ok()) return front.take_error();
   p->front_ = std::move(*front);
 
-  // The slots, each sized once.
+  // The slots, each sized once; one when a single thread takes every step in turn.
   Status slot_status;
   const auto init = [&](PreparedFrame& slot) {
     if (Status s = p->front_->allocate(slot); !s.ok() && slot_status.ok()) slot_status = s;
     p->slot_bytes_ = frame_bytes(slot.working) + (slot.pre ? slot.pre->bytes() : 0) +
                      slot.cnn.probabilities.size() * sizeof(float) + slot.cnn.labels.size();
   };
-  if (config.threads == 1) {
-    p->single_slot_ = std::make_unique<PreparedFrame>();
-    init(*p->single_slot_);
-  } else {
-    p->prepared_ = std::make_unique<FrameRing<PreparedFrame>>(config.prepared_slots, init);
-  }
+  p->ring_ = std::make_unique<StageRing<PreparedFrame>>(config.threads == 1 ? 1 : config.prepared_slots, kStages, init);
   if (!slot_status.ok()) return slot_status.error();
 
   p->c_ = CounterIds{stats.add_counter("camera_lost"),     stats.add_counter("corrupt_frames_dropped"),
@@ -117,60 +116,46 @@ bool RunPipeline::consume(PreparedFrame& slot, RunObserver& observer, RunOutcome
   return true;
 }
 
-void RunPipeline::run_one_thread(RunObserver& observer, RunOutcome& outcome) {
-  PreparedFrame& slot = *single_slot_;
+void RunPipeline::check_stop(RunObserver& observer, RunOutcome& outcome) {
+  if (stop_sent_ || !observer.stop_requested(*this)) return;
+  outcome.stopped = true;
+  stop_sent_ = true;
+  front_->request_stop();  // drains: every frame captured or prepared is still mapped
+}
+
+void RunPipeline::front_loop(bool with_segment) {
+  StageRing<PreparedFrame>& ring = *ring_;
   while (true) {
-    if (!stop_sent_ && observer.stop_requested(*this)) {
-      outcome.stopped = true;
-      stop_sent_ = true;
-      front_->request_stop();  // drains: a live camera's captured frames still come
+    PreparedFrame* slot = ring.acquire(kFront, kPoll);
+    if (slot == nullptr) {
+      if (ring.closed()) return;  // mapping gave up
+      continue;
     }
-    const FrontStage::Step step = front_->step(slot);
-    if (step == FrontStage::Step::kNothingYet) continue;
-    if (!consume(slot, observer, outcome)) return;
+    // kNothingYet: the same slot again (a live camera had nothing within the poll time).
+    if (front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
+    ring.release(kFront);
+    if (with_segment) {
+      if (ring.acquire(kSegment, kPoll) != slot) return;  // closed (it is next in line otherwise)
+      front_->segment(*slot);
+      ring.release(kSegment);
+    }
+    if (slot->end) return;
   }
 }
 
-void RunPipeline::run_two_threads(RunObserver& observer, RunOutcome& outcome) {
-  FrameRing<PreparedFrame>& ring = *prepared_;
-  std::thread front_thread([this, &ring] {
-    pin_or_warn(config_.front_cpu, "front stage");
-    while (true) {
-      PreparedFrame* slot = ring.acquire_write_waiting(kPoll);
-      if (slot == nullptr) {
-        if (ring.closed()) return;  // the mapping stage gave up
-        continue;
-      }
-      const FrontStage::Step step = front_->step(*slot);
-      if (step == FrontStage::Step::kNothingYet) {
-        ring.abort_write();
-        continue;
-      }
-      ring.commit();
-      if (step == FrontStage::Step::kEnd) return;
-    }
-  });
+void RunPipeline::segment_loop() {
+  StageRing<PreparedFrame>& ring = *ring_;
   while (true) {
-    if (!stop_sent_ && observer.stop_requested(*this)) {
-      outcome.stopped = true;
-      stop_sent_ = true;
-      front_->request_stop();  // drains: every prepared or captured frame is still mapped
+    PreparedFrame* slot = ring.acquire(kSegment, kPoll);
+    if (slot == nullptr) {
+      if (ring.closed()) return;
+      continue;
     }
-    PreparedFrame* slot = ring.acquire_read(kPoll);
-    if (slot == nullptr) continue;  // the front stage always ends with an end slot
-    const bool more = consume(*slot, observer, outcome);
-    const bool was_end = slot->end;
-    ring.release();
-    if (!more) {
-      if (!was_end) {
-        // A mapping error: the front stage stops where it is; frames it prepared are not mapped.
-        front_->request_stop();
-        ring.close();
-      }
-      break;
-    }
+    front_->segment(*slot);
+    const bool end = slot->end;
+    ring.release(kSegment);
+    if (end) return;
   }
-  front_thread.join();
 }
 
 RunOutcome RunPipeline::run(RunObserver& observer) {
@@ -178,8 +163,42 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
   const auto start = std::chrono::steady_clock::now();
   pin_or_warn(config_.mapping_cpu, "mapping");
   front_->start_capture();
-  if (config_.threads == 1) run_one_thread(observer, outcome);
-  else run_two_threads(observer, outcome);
+  StageRing<PreparedFrame>& ring = *ring_;
+  std::thread front_thread, segment_thread;
+  if (config_.threads >= 2) {
+    front_thread = std::thread([this] {
+      pin_or_warn(config_.front_cpu, "front stage");
+      front_loop(/*with_segment=*/config_.threads == 2);
+    });
+  }
+  if (config_.threads == 3) {
+    segment_thread = std::thread([this] {
+      pin_or_warn(config_.cnn_cpu, "CNN");
+      segment_loop();
+    });
+  }
+  while (true) {
+    check_stop(observer, outcome);
+    if (config_.threads == 1) {
+      // Every step in turn on this thread, on the ring's one slot.
+      PreparedFrame* slot = ring.acquire(kFront, kPoll);
+      if (slot == nullptr || front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
+      ring.release(kFront);
+      ring.acquire(kSegment, kPoll);
+      front_->segment(*slot);
+      ring.release(kSegment);
+    }
+    PreparedFrame* slot = ring.acquire(kMapping, kPoll);
+    if (slot == nullptr) continue;  // the front step always ends with an end slot
+    const bool more = consume(*slot, observer, outcome);
+    ring.release(kMapping);
+    if (!more) break;
+  }
+  // Ended (the end slot, or an error): threads still waiting or working on later slots give up.
+  if (front_thread.joinable() || segment_thread.joinable()) front_->request_stop();
+  ring.close();
+  if (front_thread.joinable()) front_thread.join();
+  if (segment_thread.joinable()) segment_thread.join();
   outcome.frames = mapping_->frames();
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   stats_.set_counter(c_.dropped_overload, front_->dropped_overload());

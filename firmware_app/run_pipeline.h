@@ -2,22 +2,26 @@
 //
 //   capture thread   live cameras only: source -> capture ring (config.capture_slots, drop-oldest,
 //                    counted as frames_dropped_overload); a camera is never held up by mapping
-//   front stage      next frame -> resample -> preprocess -> CNN every label_every-th frame
-//                    (firmware_app/front_stage.h) -> a PreparedFrame slot
-//   prepared ring    config.prepared_slots slots (threads = 2 only); the front stage waits for a
-//                    free slot, so nothing is dropped between the stages
-//   mapping stage    track + fuse + predict, labels fused at the frame's pose, CRF, label images,
+//   front            next frame -> resample -> preprocess (firmware_app/front_stage.h)
+//   segment          the CNN every label_every-th frame, into the frame's slot
+//   mapping          track + fuse + predict, labels fused at the frame's pose, CRF, label images,
 //                    trajectory line (firmware_app/mapping_stage.h); then the observer (LED,
 //                    progress line) and its stop requests (signals, the button)
 //   outputs          write_outputs(): trajectory closed, final CRF, map.ply, stats.json
 //
-// threads = 1: front and mapping steps take turns on the calling thread (deterministic; the step
-// functions are what tests drive). threads = 2: the front stage runs on its own thread, a frame
-// or more ahead. The outputs are identical either way, because the front stage reads nothing the
-// mapping stage writes. Each thread is pinned to its configured core, if any.
+// The three steps share a StageRing (core/stage_ring.h) of config.prepared_slots PreparedFrame
+// slots, which every frame passes through in order; a step waits for its predecessor, nothing is
+// dropped after capture. config.threads says how the steps map onto threads:
+//   1  front, segment and mapping take turns on the calling thread (one slot; deterministic)
+//   2  front + segment on one thread, mapping on the calling thread (the default)
+//   3  front, segment and mapping each on a thread (a board with cores to spare: the CNN's time
+//      then overlaps both)
+// The outputs are identical in every mode, because neither front nor segment reads anything mapping
+// writes: segmentation needs no pose, so the CNN runs before its frame is tracked and its result is
+// fused with that frame's pose once mapping has it. Each thread is pinned to its configured core.
 //
-// Ending: the source's end, max_frames, a source error, a mapping error, or the observer's stop
-// request. A stop request drains the pipeline: the capture thread stops taking frames and every
+// Ending: the source's end, max_frames, a source or CNN error, a mapping error, or the observer's
+// stop request. A stop request drains the pipeline: the capture thread stops taking frames and every
 // frame already captured or prepared is still mapped; then the outputs are written. A camera that
 // disappears (is_camera_lost) ends the run like a stop, not as an error.
 //
@@ -31,7 +35,7 @@
 #include <string>
 #include <vector>
 
-#include "core/frame_ring.h"
+#include "core/stage_ring.h"
 #include "core/result.h"
 #include "core/stage_stats.h"
 #include "front_stage.h"
@@ -99,8 +103,11 @@ class RunPipeline {
       : config_(config), source_(source), stats_(stats) {}
   // Maps one slot; an end slot sets the outcome instead. Returns false when the run is over.
   bool consume(PreparedFrame& slot, RunObserver& observer, RunOutcome& outcome);
-  void run_one_thread(RunObserver& observer, RunOutcome& outcome);
-  void run_two_threads(RunObserver& observer, RunOutcome& outcome);
+  // The observer's stop request, passed on to the front stage once.
+  void check_stop(RunObserver& observer, RunOutcome& outcome);
+  // The loop of a thread that runs the front step (and the segment step when `with_segment`).
+  void front_loop(bool with_segment);
+  void segment_loop();
 
   const RunConfig config_;
   FrameSource& source_;
@@ -108,8 +115,7 @@ class RunPipeline {
   std::unique_ptr<RunSemantics> semantics_;
   std::unique_ptr<MappingStage> mapping_;
   std::unique_ptr<FrontStage> front_;
-  std::unique_ptr<PreparedFrame> single_slot_;           // threads = 1
-  std::unique_ptr<FrameRing<PreparedFrame>> prepared_;   // threads = 2
+  std::unique_ptr<StageRing<PreparedFrame>> ring_;  // front -> segment -> mapping
   std::size_t slot_bytes_ = 0;
   bool stop_sent_ = false;
   struct CounterIds {

@@ -7,12 +7,8 @@
 // `reading`; the mutex guards the state table and the FIFO of ready slots, never the pixel copy,
 // so a reader can never see a half-written slot and a slow copy never blocks the other side.
 //
-// Overload policy, chosen by the producer per call:
-//   acquire_write()          never blocks: when no slot is free it takes back the oldest ready
-//                            (committed, not yet read) slot; that frame is dropped and counted in
-//                            dropped(). For a live camera, which must not be held up.
-//   acquire_write_waiting()  waits for the consumer to free a slot: nothing is dropped. For stages
-//                            inside the pipeline, where waiting only slows the producer down.
+// Overload policy: the producer never blocks. When no slot is free, acquire_write() takes back the
+// oldest ready (committed, not yet read) slot; that frame is dropped and counted in dropped().
 // A frame that the consumer has already acquired is never taken back.
 //
 // Threads: acquire_write/commit/abort_write from one producer thread; acquire_read/release from one
@@ -66,25 +62,6 @@ class FrameRing {
     return slots_[slot];
   }
 
-  // Producer: a free slot to fill, waiting up to `timeout` for the consumer to release one; nullptr
-  // on time-out or when the ring is closed. Never drops a frame.
-  T* acquire_write_waiting(std::chrono::microseconds timeout) {
-    if (timeout > kMaxWait) timeout = kMaxWait;
-    std::unique_lock<std::mutex> lock(mu_);
-    int slot = -1;
-    cv_free_.wait_for(lock, timeout, [&] {
-      if (closed_) return true;
-      for (int i = 0; i < capacity_; ++i) {
-        if (state_[i] == State::kFree) { slot = i; return true; }
-      }
-      return false;
-    });
-    if (closed_ || slot < 0) return nullptr;
-    state_[slot] = State::kWriting;
-    writing_ = slot;
-    return &slots_[slot];
-  }
-
   // Producer: publish the slot from acquire_write() to the consumer.
   void commit() {
     {
@@ -108,6 +85,9 @@ class FrameRing {
   // Consumer: the oldest ready slot, waiting up to `timeout` for one. nullptr on time-out, or
   // when the ring is closed and drained. The consumer must release() before the next acquire.
   T* acquire_read(std::chrono::microseconds timeout) {
+    // Bound the wait: wait_for adds the timeout to the clock in nanoseconds, which overflows (and
+    // returns at once) for "forever" values such as microseconds::max().
+    constexpr std::chrono::microseconds kMaxWait = std::chrono::hours(24 * 365);
     if (timeout > kMaxWait) timeout = kMaxWait;
     std::unique_lock<std::mutex> lock(mu_);
     cv_.wait_for(lock, timeout, [&] { return ready_count_ > 0 || closed_; });
@@ -120,26 +100,18 @@ class FrameRing {
 
   // Consumer: hand the slot from acquire_read() back for reuse.
   void release() {
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      state_[reading_] = State::kFree;
-      reading_ = -1;
-    }
-    cv_free_.notify_one();
+    std::lock_guard<std::mutex> lock(mu_);
+    state_[reading_] = State::kFree;
+    reading_ = -1;
   }
 
-  // No more frames will be committed; a waiting consumer (and a waiting producer) wakes up.
+  // No more frames will be committed; a waiting consumer wakes up.
   void close() {
     {
       std::lock_guard<std::mutex> lock(mu_);
       closed_ = true;
     }
     cv_.notify_all();
-    cv_free_.notify_all();
-  }
-  bool closed() const {
-    std::lock_guard<std::mutex> lock(mu_);
-    return closed_;
   }
   bool closed_and_empty() const {
     std::lock_guard<std::mutex> lock(mu_);
@@ -152,9 +124,6 @@ class FrameRing {
 
  private:
   enum class State : uint8_t { kFree, kWriting, kReady, kReading };
-  // Bound on waits: wait_for adds the timeout to the clock in nanoseconds, which overflows (and
-  // returns at once) for "forever" values such as microseconds::max().
-  static constexpr std::chrono::microseconds kMaxWait = std::chrono::hours(24 * 365);
 
   int pop_ready_locked() {
     const int slot = ready_[ready_head_];
@@ -175,8 +144,7 @@ class FrameRing {
   uint64_t dropped_ = 0;
   uint64_t committed_ = 0;
   mutable std::mutex mu_;
-  std::condition_variable cv_;       // a slot became ready (or the ring closed)
-  std::condition_variable cv_free_;  // a slot became free (or the ring closed)
+  std::condition_variable cv_;
 };
 
 }  // namespace ef

@@ -55,10 +55,10 @@ TEST(Cli, UnknownOptionsAndBadValuesNameTheOption) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--out"), std::string::npos) << r.err;
 
-  r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--threads", "3"});
+  r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--threads", "4"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--threads"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("1..2"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1..3"), std::string::npos) << r.err;
 
   r = cli({"eval", "rpe", "a.txt", "b.txt"});
   EXPECT_EQ(r.code, 2);

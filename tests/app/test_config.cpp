@@ -66,6 +66,7 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.prepared_slots, b.prepared_slots);
   EXPECT_EQ(a.capture_slots, b.capture_slots);
   EXPECT_EQ(a.front_cpu, b.front_cpu);
+  EXPECT_EQ(a.cnn_cpu, b.cnn_cpu);
   EXPECT_EQ(a.mapping_cpu, b.mapping_cpu);
   EXPECT_EQ(a.capture_cpu, b.capture_cpu);
   EXPECT_EQ(a.gpio.led.chip, b.gpio.led.chip);
@@ -215,8 +216,9 @@ TEST(ConfigYaml, EveryErrorNamesFileLineKeyAndValue) {
       {"mapping: {surfel_capacity: 10\nresolution: 320x240\n", {"test.yaml", "line", "YAML syntax error"}},
       {"resolution: 320x240\n  bad indentation: 1\n", {"test.yaml", "line 2", "YAML syntax error"}},
       {"- a\n- b\n", {"test.yaml", "line 1", "key: value"}},
-      {"pipeline: {threads: 3}\n", {"line 1", "'pipeline.threads'", "'3'", "1..2"}},
-      {"threads: 0\n", {"'threads'", "'0'", "1..2"}},
+      {"pipeline: {threads: 4}\n", {"line 1", "'pipeline.threads'", "'4'", "1..3"}},
+      {"threads: 0\n", {"'threads'", "'0'", "1..3"}},
+      {"pipeline: {cnn_cpu: x}\n", {"'pipeline.cnn_cpu'", "'x'"}},
       {"pipeline:\n  prepared_slots: 1\n", {"line 2", "'pipeline.prepared_slots'", "2..16"}},
       {"pipeline: {capture_slots: 65}\n", {"'pipeline.capture_slots'", "65", "2..64"}},
       {"pipeline: {front_cpu: -2}\n", {"'pipeline.front_cpu'", "-2", "not pinned"}},
@@ -288,6 +290,7 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.prepared_slots = 16;
   c.capture_slots = 2;
   c.front_cpu = 3;
+  c.cnn_cpu = 2;
   c.mapping_cpu = 0;
   c.capture_cpu = 1023;
   c.gpio.led.chip = "pinctrl-bcm2711";

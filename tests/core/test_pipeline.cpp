@@ -1,7 +1,7 @@
 // The pipeline of `edgefusion run` (firmware_app/run_pipeline.h), driven in-process:
-//   - one thread and two threads give byte-identical trajectory and map (the front stage reads
-//     nothing the mapping stage writes);
-//   - 3000 steady-state frames through both stages on two threads allocate nothing;
+//   - one, two and three threads give byte-identical trajectory and map (front and CNN read
+//     nothing mapping writes);
+//   - 3000 steady-state frames through every step on three threads allocate nothing;
 //   - a stop request drains: every frame the front stage prepared is mapped, outputs complete;
 //   - a live camera that vanishes mid-run leaves complete outputs and exit status "camera lost".
 // In test_core so that it runs under ThreadSanitizer in CI.
@@ -119,11 +119,11 @@ class StopAfter : public app::RunObserver {
   int64_t stop_after_;
 };
 
-TEST(Pipeline, OneAndTwoThreadsGiveIdenticalOutputs) {
+TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
   const auto dir = test::scratch_dir("pipeline-threads");
   const std::string model = tiny_model(dir);
-  std::string trajectory[2], map[2];
-  for (int threads = 1; threads <= 2; ++threads) {
+  std::string trajectory[3], map[3];
+  for (int threads = 1; threads <= 3; ++threads) {
     LoopSource source(12, 40);
     StageStats stats;
     const auto out = dir / ("t" + std::to_string(threads));
@@ -141,13 +141,15 @@ TEST(Pipeline, OneAndTwoThreadsGiveIdenticalOutputs) {
   }
   EXPECT_GT(trajectory[0].size(), 40u * 20);
   EXPECT_GT(map[0].size(), 10'000u);
-  EXPECT_EQ(trajectory[0], trajectory[1]);
-  EXPECT_TRUE(map[0] == map[1]) << "map.ply differs between one and two threads";
+  for (int t = 1; t < 3; ++t) {
+    EXPECT_EQ(trajectory[0], trajectory[t]) << t + 1 << " threads";
+    EXPECT_TRUE(map[0] == map[t]) << "map.ply differs between one and " << t + 1 << " threads";
+  }
 }
 
-// Issue 7: "over 3000 steady-state frames: zero heap allocations". Both stages, two threads, the CNN
-// every 5th frame; the global counter sees the front thread too.
-TEST(Pipeline, ThreeThousandFramesOnTwoThreadsAllocateNothing) {
+// Issue 7: "over 3000 steady-state frames: zero heap allocations". Every step, three threads, the
+// CNN every 5th frame; the global counter sees the front and CNN threads too.
+TEST(Pipeline, ThreeThousandFramesOnThreeThreadsAllocateNothing) {
   ASSERT_TRUE(test::allocation_counting_enabled());
 #if defined(EF_TESTS_UNDER_EMULATOR) || defined(__SANITIZE_THREAD__)
   constexpr int64_t kFrames = 300;  // qemu and TSan run this 20-60x slower
@@ -155,13 +157,13 @@ TEST(Pipeline, ThreeThousandFramesOnTwoThreadsAllocateNothing) {
   constexpr int64_t kFrames = 3000;
 #endif
   constexpr int64_t kWarmUp = 10;  // first frames: dispatch choices, the map's first growth
-  // The source goes on past the counted frames: when the front thread ends, OpenCV's thread-local
-  // storage allocates in its destructor (once per thread, not per frame).
+  // The source goes on past the counted frames: when the front and CNN threads end, OpenCV's
+  // thread-local storage allocates in its destructor (once per thread, not per frame).
   constexpr int64_t kTail = 10;
   const auto dir = test::scratch_dir("pipeline-zero-alloc");
   LoopSource source(16, kWarmUp + kFrames + kTail);
   StageStats stats;
-  auto p = app::RunPipeline::create(small_run(dir, tiny_model(dir), 2), source, stats);
+  auto p = app::RunPipeline::create(small_run(dir, tiny_model(dir), 3), source, stats);
   ASSERT_TRUE(p.ok()) << to_string(p.error());
 
   // Counts from the end of the warm-up to the last mapped frame, on every thread.
@@ -209,7 +211,7 @@ TEST(Pipeline, StopRequestDrainsEveryPreparedFrameAndWritesOutputs) {
 
 TEST(Pipeline, VanishingCameraLeavesCompleteOutputs) {
   const auto dir = test::scratch_dir("pipeline-camera-lost");
-  for (int threads = 1; threads <= 2; ++threads) {
+  for (int threads : {1, 3}) {
     const auto out = dir / ("t" + std::to_string(threads));
     // A live camera at 200 Hz that is unplugged after 25 frames (kNotFound: is_camera_lost).
     LoopSource camera(12, 25, /*live=*/true, error(ErrorCode::kNotFound, "loop: camera lost (unplugged)"),
