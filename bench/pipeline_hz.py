@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """End-to-end rate of `edgefusion run` (issue 7): the 7-Scenes frames at 320x240, the CNN every 10th
-frame, on this machine's cores. Each repetition runs the one-thread pipeline (front and mapping
-stages take turns) and the two-thread pipeline (front stage on its own thread) back to back, so
-their ratio is measured side by side under the same load.
+frame, on this machine's cores. Each repetition runs the one-thread pipeline (front, CNN and
+mapping steps take turns) and the two-thread pipeline (front + CNN on a thread of their own) back to
+back (and others given with --threads, e.g. 3), so their ratio is measured side by side under the
+same load.
 
 For every run it reads stats.json (frames per second over the whole run, per-stage medians, the
 peak resident memory from getrusage) and samples the process's resident memory (VmRSS) every
@@ -11,7 +12,7 @@ at start-up, so RSS grows only while the surfel pool's pages are first written.
 
   /usr/bin/python3 bench/pipeline_hz.py --edgefusion build/release/firmware_app/edgefusion \\
       [--source 7scenes:../shared/data/7scenes-redkitchen] [--frames -1] [--reps 3] [--work /tmp/pipeline-hz]
-      [--extra "--surfel-capacity 1000000"]
+      [--threads 1 2] [--extra "--surfel-capacity 1000000"]
 Prints medians over the repetitions; the goal is at least 30 Hz with two threads and a peak RSS of
 at most 256 MB with the default 1,000,000-surfel pool.
 """
@@ -66,15 +67,19 @@ def main():
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--work", default="/tmp/pipeline-hz")
     ap.add_argument("--extra", default="", help="more `edgefusion run` options, one string")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2], help="pipeline modes to compare (1, 2, 3)")
     a = ap.parse_args()
     extra = shlex.split(a.extra)
-    fps = {1: [], 2: []}
-    stages = {1: {s: [] for s in STAGES}, 2: {s: [] for s in STAGES}}
-    peak = {1: [], 2: []}
+    modes = a.threads
+    if 1 not in modes or 2 not in modes:
+        sys.exit("pipeline_hz: --threads must include 1 and 2 (the ratio and the goal are read from them)")
+    fps = {t: [] for t in modes}
+    stages = {t: {s: [] for s in STAGES} for t in modes}
+    peak = {t: [] for t in modes}
     rss_curves = {}
     frames = None
     for rep in range(a.reps):
-        for threads in (1, 2):
+        for threads in modes:
             out = os.path.join(a.work, f"t{threads}-r{rep}")
             stats, samples = one_run(a.edgefusion, a.source, a.frames, threads, out, extra)
             frames = stats["frames"]
@@ -90,13 +95,13 @@ def main():
                   flush=True)
 
     print(f"\n{a.source}, {frames} frames per run, {a.reps} repetitions, {os.cpu_count()} cores; medians")
-    print(f"| | 1 thread | 2 threads |\n|---|---:|---:|")
-    print(f"| end-to-end Hz | {statistics.median(fps[1]):.1f} | {statistics.median(fps[2]):.1f} |")
+    print("| | " + " | ".join(f"{t} thread{'s' if t > 1 else ''}" for t in modes) + " |")
+    print("|---|" + "---:|" * len(modes))
+    print("| end-to-end Hz | " + " | ".join(f"{statistics.median(fps[t]):.1f}" for t in modes) + " |")
     for s in STAGES:
-        v1 = statistics.median(stages[1][s]) if stages[1][s] else float("nan")
-        v2 = statistics.median(stages[2][s]) if stages[2][s] else float("nan")
-        print(f"| {s} ms | {v1:.2f} | {v2:.2f} |")
-    print(f"| peak RSS MB | {statistics.median(peak[1]):.1f} | {statistics.median(peak[2]):.1f} |")
+        cells = [f"{statistics.median(stages[t][s]):.2f}" if stages[t][s] else "-" for t in modes]
+        print(f"| {s} ms | " + " | ".join(cells) + " |")
+    print("| peak RSS MB | " + " | ".join(f"{statistics.median(peak[t]):.1f}" for t in modes) + " |")
     ratios = [b / a_ for a_, b in zip(fps[1], fps[2])]
     print(f"\ntwo threads / one thread, per repetition side by side: "
           f"{', '.join(f'{r:.2f}' for r in ratios)} (median {statistics.median(ratios):.2f}x)")

@@ -19,7 +19,7 @@
 # tracking + fusion time).
 #
 # What it runs, one after the other (never together, so they do not share the cores):
-#   1. OMP_NUM_THREADS=1 edgefusion run --source 7scenes:DIR --resolution 320x240 --frames N --out OUT/ours
+#   1. OMP_NUM_THREADS=1 edgefusion run --threads 1 --source 7scenes:DIR --resolution 320x240 --frames N --out OUT/ours
 #      EdgeFusion's ms/frame = the sum of the per-stage medians (and means) in OUT/ours/stats.json of
 #      those EF_SLAM_STAGES it finds; the whole run's wall ms/frame (decoding included) beside it.
 #   2. OMP_NUM_THREADS=1 $PYTHON bench/open3d_odometry.py --data DIR --frames N --resolution 320x240
@@ -115,7 +115,7 @@ echo "== edgefusion: $edgefusion ($("$edgefusion" version 2>/dev/null | head -n 
 echo "== data: $data, $frames frames at $resolution, OMP_NUM_THREADS=1"
 
 echo "== 1/4 EdgeFusion: edgefusion run" >&2
-OMP_NUM_THREADS=1 "$edgefusion" run --source "7scenes:$data" --resolution "$resolution" --frames "$frames" \
+OMP_NUM_THREADS=1 "$edgefusion" run --threads 1 --source "7scenes:$data" --resolution "$resolution" --frames "$frames" \
   --out "$out/ours" --quiet > "$out/ours.log" 2>&1 || { cat "$out/ours.log" >&2; die 1 "edgefusion run failed"; }
 [[ -f "$out/ours/stats.json" ]] || die 1 "edgefusion run wrote no $out/ours/stats.json"
 [[ -f "$out/ours/trajectory.txt" ]] || die 1 "edgefusion run wrote no $out/ours/trajectory.txt"
