@@ -184,7 +184,7 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
       PreparedFrame* slot = ring.acquire(kFront, kPoll);
       if (slot == nullptr || front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
       ring.release(kFront);
-      ring.acquire(kSegment, kPoll);
+      ring.acquire(kSegment, kPoll);  // `slot` again: the one slot, just released by the front step
       front_->segment(*slot);
       ring.release(kSegment);
     }
@@ -194,8 +194,9 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
     ring.release(kMapping);
     if (!more) break;
   }
-  // Ended (the end slot, or an error): threads still waiting or working on later slots give up.
-  if (front_thread.joinable() || segment_thread.joinable()) front_->request_stop();
+  // Ended (the end slot, or an error): the camera stops, and threads still waiting or working on
+  // later slots give up.
+  front_->request_stop();
   ring.close();
   if (front_thread.joinable()) front_thread.join();
   if (segment_thread.joinable()) segment_thread.join();
