@@ -148,7 +148,9 @@ int cmd_run(int argc, char** argv) {
     return report_error(kCmd, error(ErrorCode::kInvalidArgument, "missing --out DIR (or 'out:' in --config)"), 2);
 
   // The memory plan before anything large exists (edgefusion plan prints it part by part).
-  if (Status s = check_memory_budget(config); !s.ok()) return report_error(kCmd, s.error(), 2);
+  auto plan = plan_memory(config);
+  if (!plan.ok()) return report_error(kCmd, plan.error(), 2);
+  if (Status s = check_memory_budget(*plan, config); !s.ok()) return report_error(kCmd, s.error(), 2);
 
   // The front panel, if configured: a missing chip is an error (exit 2) unless gpio.optional.
   auto gpio_or = open_gpio_lines(config.gpio);
@@ -189,10 +191,11 @@ int cmd_run(int argc, char** argv) {
                static_cast<double>(pipeline.slot_bytes()) / 1e6,
                info.live ? (", capture thread with " + std::to_string(config.capture_slots) + " slots").c_str() : "");
   if (pipeline.semantics() != nullptr)
-    std::fprintf(stderr, "%s: %s (%.1f MB)\n", kCmd, pipeline.semantics()->describe().c_str(),
-                 static_cast<double>(pipeline.semantics()->bytes()) / 1e6);
+    std::fprintf(stderr, "%s: %s\n", kCmd, pipeline.semantics()->describe().c_str());
   else
     std::fprintf(stderr, "%s: labels off (geometry only)\n", kCmd);
+  std::fprintf(stderr, "%s: memory plan %.1f MB of the %lld MB budget (`edgefusion plan` lists the parts)\n", kCmd,
+               static_cast<double>(plan->total_bytes) / 1e6, static_cast<long long>(config.memory_budget_mb));
 
   panel.set_led(LedPattern::kTracking);
   const RunOutcome outcome = pipeline.run(panel);

@@ -301,6 +301,10 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
 
 Status check_memory_budget(const RunConfig& config) {
   EF_ASSIGN_OR_RETURN(MemoryPlan plan, plan_memory(config));
+  return check_memory_budget(plan, config);
+}
+
+Status check_memory_budget(const MemoryPlan& plan, const RunConfig& config) {
   if (plan.within_budget()) return Status::success();
   std::vector<MemoryPart> largest = plan.parts;
   std::sort(largest.begin(), largest.end(), [](const MemoryPart& a, const MemoryPart& b) { return a.bytes > b.bytes; });

@@ -50,5 +50,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config);
 // Ok when plan_memory(config) succeeds and fits the budget. Otherwise kResourceExhausted with the
 // total, the budget and the largest parts, and what to change (or plan_memory's error).
 Status check_memory_budget(const RunConfig& config);
+// The same for a plan already made from `config`.
+Status check_memory_budget(const MemoryPlan& plan, const RunConfig& config);
 
 }  // namespace ef::app

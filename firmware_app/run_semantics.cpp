@@ -103,18 +103,6 @@ std::string RunSemantics::describe() const {
   return o.str();
 }
 
-std::size_t RunSemantics::bytes() const {
-  std::size_t b = segmenter_->buffer_bytes() + class_id_.size() * (sizeof(uint8_t) + sizeof(float)) +
-                  static_cast<std::size_t>(rendered_.width()) * static_cast<std::size_t>(rendered_.height());
-  if (crf_ != nullptr) b += crf_->bytes();
-  return b;
-}
-
-std::size_t RunSemantics::cnn_result_bytes() const {
-  return segmenter_->probabilities().floats() * sizeof(float) +
-         static_cast<std::size_t>(rendered_.width()) * static_cast<std::size_t>(rendered_.height());
-}
-
 bool RunSemantics::cnn_due(int64_t frame_number) const {
   return fusion_->due(frame_number) || (!config_.labels_out.empty() && frame_number % config_.labels_out_every == 0);
 }

@@ -79,9 +79,6 @@ class RunSemantics {
 
   // "model edgefusion-seg.efm (160x120 -> 14 classes), labels every 10 frames, CRF off" for the log.
   std::string describe() const;
-  std::size_t bytes() const;  // everything create() allocated (for the memory line)
-  // Bytes allocate() gives one CnnResult.
-  std::size_t cnn_result_bytes() const;
 
  private:
   RunSemantics() = default;
