@@ -177,7 +177,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   slam::TrackerOptions trk;
   const int levels = pre.levels;
   // slam/preprocess.h (Preprocessor::bytes()): the pyramid, the cut depth, the padded bilateral
-  // input, its weights and rows. The SLAM has one, and so has every prepared frame (below).
+  // input, its weights and rows: one per prepared frame (below).
   size_t preprocessor_bytes = 0;
   {
     size_t& b = preprocessor_bytes;
@@ -188,7 +188,8 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
     const int r = pre.bilateral_radius_px;
     b += px(w, h) * sizeof(float) + px(w + 2 * r, h + 2 * r) * sizeof(float) + px(2 * r + 1, 2 * r + 1) * sizeof(float) +
          2 * static_cast<size_t>(w) * sizeof(float);
-    add("slam preprocessing", b, std::to_string(levels) + " levels x 40 bytes per pixel + filter buffers");
+    // Not a part of its own: `run`'s SLAM has no preprocessor (own_preprocessor = false); the
+    // prepared frames below each have one.
   }
   {  // slam/tracker.h: row tiles (2 x 8 floats per pixel), the SO(3) level's images and rays
     const Size2 extra = level_size(w, h, levels);

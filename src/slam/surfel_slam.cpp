@@ -41,20 +41,26 @@ std::string SurfelSlamOptions::describe() const {
     << "constant_velocity_guess: " << (constant_velocity_guess ? "true" : "false")
     << "  # initial guess: last pose (false) or constant velocity (true)\n"
     << "bootstrap_confidence_per_frame: " << bootstrap_confidence_per_frame
-    << "  # early tracking admits surfels with confidence >= this x frames fused\n";
+    << "  # early tracking admits surfels with confidence >= this x frames fused\n"
+    << "own_preprocessor: " << (own_preprocessor ? "true" : "false")
+    << "  # false: frames come preprocessed (process(frame, preprocessed))\n";
   return s.str();
 }
 
 Result<SurfelSlam> SurfelSlam::create(const Intrinsics& working, const SurfelSlamOptions& options) {
   EF_RETURN_IF_ERROR(options.validate());
-  EF_ASSIGN_OR_RETURN(Preprocessor pre, Preprocessor::create(working, options.preprocess));
+  std::optional<Preprocessor> pre;
+  if (options.own_preprocessor) {
+    EF_ASSIGN_OR_RETURN(Preprocessor own, Preprocessor::create(working, options.preprocess));
+    pre.emplace(std::move(own));
+  }
   EF_ASSIGN_OR_RETURN(Tracker tracker, Tracker::create(working, options.preprocess.levels, options.tracker));
   EF_ASSIGN_OR_RETURN(ModelPredictor predictor,
                       ModelPredictor::create(working, options.preprocess.levels, options.prediction));
   EF_ASSIGN_OR_RETURN(SurfelFusion fusion, SurfelFusion::create(working, options.prediction.index_map_scale,
                                                                 options.pool.capacity, options.fusion));
   EF_ASSIGN_OR_RETURN(SurfelPool pool, SurfelPool::create(options.pool));
-  SurfelSlam slam(options, std::move(pre), std::move(tracker), std::move(predictor), std::move(fusion),
+  SurfelSlam slam(options, working, std::move(pre), std::move(tracker), std::move(predictor), std::move(fusion),
                   std::move(pool));
   slam.T_world_last_ = options.initial_pose;
   // An empty index map at the initial pose: the first frame finds no candidates and creates surfels.
@@ -68,27 +74,32 @@ float SurfelSlam::tracking_min_confidence() const {
 }
 
 Result<Preprocessor> SurfelSlam::make_preprocessor() const {
-  return Preprocessor::create(pre_.intrinsics(), options_.preprocess);
+  return Preprocessor::create(working_, options_.preprocess);
 }
 
 Status SurfelSlam::process(const Frame& frame, SlamFrameResult* result) {
+  if (!pre_)
+    return error(ErrorCode::kInvalidArgument,
+                 "slam: created without its own preprocessor (own_preprocessor = false): frames must come "
+                 "preprocessed, through process(frame, preprocessed, result)");
   const Clock::time_point t_start = Clock::now();
-  EF_RETURN_IF_ERROR(pre_.process(frame));
+  EF_RETURN_IF_ERROR(pre_->process(frame));
   const double preprocess_ms = ms_since(t_start);
-  EF_RETURN_IF_ERROR(track_fuse_predict(frame, pre_, result));
+  EF_RETURN_IF_ERROR(track_fuse_predict(frame, *pre_, result));
   result->timings.preprocess_ms = preprocess_ms;
   result->timings.total_ms = ms_since(t_start);
   return Status::success();
 }
 
 Status SurfelSlam::process(const Frame& frame, const Preprocessor& preprocessed, SlamFrameResult* result) {
-  const Intrinsics& k = pre_.intrinsics();
+  const Intrinsics& k = working_;
   const Intrinsics& p = preprocessed.intrinsics();
-  if (p.width != k.width || p.height != k.height || preprocessed.levels() != pre_.levels())
+  const int levels = options_.preprocess.levels;
+  if (p.width != k.width || p.height != k.height || preprocessed.levels() != levels)
     return error(ErrorCode::kInvalidArgument,
                  "slam: preprocessed frame is " + std::to_string(p.width) + "x" + std::to_string(p.height) + " with " +
                      std::to_string(preprocessed.levels()) + " levels; the SLAM works at " + std::to_string(k.width) +
-                     "x" + std::to_string(k.height) + " with " + std::to_string(pre_.levels()));
+                     "x" + std::to_string(k.height) + " with " + std::to_string(levels));
   if (frame.depth.width() != k.width || frame.depth.height() != k.height)
     return error(ErrorCode::kInvalidArgument, "slam: frame is " + std::to_string(frame.depth.width()) + "x" +
                                                   std::to_string(frame.depth.height()) + "; the SLAM works at " +

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "core/frame.h"
@@ -48,6 +49,10 @@ struct SurfelSlamOptions {
   // tracking prediction admits surfels with confidence >= this fraction of the frames fused so far
   // (dimensionless, 0..1], capped at the stable threshold. 0.5: a surfel seen in half the frames.
   float bootstrap_confidence_per_frame = 0.5f;
+  // true: the SLAM has its own Preprocessor for process(frame). false: frames only come already
+  // preprocessed, through process(frame, preprocessed) (a pipeline that preprocesses on another
+  // thread); saves the pyramids' memory (Preprocessor::bytes(), 4.7 MB at 320x240).
+  bool own_preprocessor = true;
 
   Status validate() const;
   std::string describe() const;
@@ -73,7 +78,8 @@ class SurfelSlam {
   static Result<SurfelSlam> create(const Intrinsics& working, const SurfelSlamOptions& options = {});
 
   // Processes one frame at the working resolution (depth in metres, colour optional).
-  // Errors (kInvalidArgument): a frame of another size. Lost tracking is not an error.
+  // Errors (kInvalidArgument): a frame of another size, or a SLAM created without its own
+  // preprocessor (options.own_preprocessor false). Lost tracking is not an error.
   Status process(const Frame& frame, SlamFrameResult* result);
   // The same for a frame whose pyramids `preprocessed` already holds (it processed `frame` last):
   // preprocessing needs nothing from the map, so a pipeline runs it on another thread, ahead of
@@ -101,9 +107,10 @@ class SurfelSlam {
  private:
   Status track_fuse_predict(const Frame& frame, const Preprocessor& pre, SlamFrameResult* result);
 
-  SurfelSlam(SurfelSlamOptions options, Preprocessor pre, Tracker tracker, ModelPredictor predictor,
-             SurfelFusion fusion, SurfelPool pool)
+  SurfelSlam(SurfelSlamOptions options, const Intrinsics& working, std::optional<Preprocessor> pre, Tracker tracker,
+             ModelPredictor predictor, SurfelFusion fusion, SurfelPool pool)
       : options_(std::move(options)),
+        working_(working),
         pre_(std::move(pre)),
         tracker_(std::move(tracker)),
         predictor_(std::move(predictor)),
@@ -112,7 +119,8 @@ class SurfelSlam {
   float tracking_min_confidence() const;
 
   SurfelSlamOptions options_;
-  Preprocessor pre_;
+  Intrinsics working_;                // the working resolution's intrinsics
+  std::optional<Preprocessor> pre_;   // only with options_.own_preprocessor
   Tracker tracker_;
   ModelPredictor predictor_;
   SurfelFusion fusion_;

@@ -356,7 +356,7 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
   }
   EXPECT_EQ(plan->total_bytes, sum);
   EXPECT_EQ(plan->budget_bytes, 256u * 1000 * 1000);
-  for (const char* part : {"source frame", "prepared frames", "slam preprocessing", "slam tracker", "surfel pool",
+  for (const char* part : {"source frame", "prepared frames", "slam tracker", "surfel pool",
                            "model prediction", "surfel fusion scratch", "stage statistics", "cnn model", "cnn arena",
                            "cnn packed weights", "segmenter buffers", "label fusion", "label rendering",
                            "map.ply class columns"})
@@ -412,9 +412,7 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   auto pipeline = RunPipeline::create(with_out, **source, stats);
   ASSERT_TRUE(pipeline.ok()) << to_string(pipeline.error());
   EXPECT_EQ(plan->bytes_of("prepared frames"), static_cast<std::size_t>(c.prepared_slots) * (*pipeline)->slot_bytes());
-  auto pre = slam->make_preprocessor();
-  ASSERT_TRUE(pre.ok());
-  EXPECT_EQ(plan->bytes_of("slam preprocessing"), pre->bytes());
+  EXPECT_EQ(plan->bytes_of("slam preprocessing"), 0u);  // run's SLAM has none of its own
 
   auto crf = semantic::DenseCrf::create(run_crf_options(c));  // the options `run` creates it with
   ASSERT_TRUE(crf.ok()) << to_string(crf.error());

@@ -90,6 +90,47 @@ TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
   EXPECT_GT(o.surfels, 30000);
 }
 
+// A pipeline preprocesses frames on another thread, into Preprocessors of its own: the same frames
+// given preprocessed to a SLAM without its own preprocessor give the same poses and map.
+TEST(SurfelSlam, PreprocessedFramesGiveTheSameResultAsProcessingInside) {
+  auto src = open_source("synthetic:office?frames=12&size=160x120");
+  ASSERT_TRUE(src.ok());
+  const Intrinsics K = (*src)->info().intrinsics;
+  auto inside = SurfelSlam::create(K);
+  SurfelSlamOptions o;
+  o.own_preprocessor = false;
+  auto outside = SurfelSlam::create(K, o);
+  ASSERT_TRUE(inside.ok() && outside.ok());
+  auto pre = outside->make_preprocessor();
+  ASSERT_TRUE(pre.ok()) << to_string(pre.error());
+  Frame frame;
+  frame.allocate(K.width, K.height, false);
+  SlamFrameResult a, b;
+  // Without its own preprocessor, process(frame) is an error naming the way to call it.
+  ASSERT_TRUE(*(*src)->next(frame));
+  const Status refused = outside->process(frame, &b);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("own_preprocessor"), std::string::npos) << refused.error().message;
+  for (int i = 0; i < 12; ++i) {
+    if (i > 0) {
+      ASSERT_TRUE(*(*src)->next(frame));
+    }
+    ASSERT_TRUE(inside->process(frame, &a).ok());
+    ASSERT_TRUE(pre->process(frame).ok());
+    ASSERT_TRUE(outside->process(frame, *pre, &b).ok());
+    EXPECT_EQ(a.T_world_cam.matrix(), b.T_world_cam.matrix()) << "frame " << i;
+    EXPECT_EQ(b.timings.preprocess_ms, 0.0);
+  }
+  EXPECT_EQ(inside->pool().size(), outside->pool().size());
+  EXPECT_GT(outside->pool().size(), 1000);
+  // A preprocessor of another size is refused.
+  auto small = Preprocessor::create(K.scaled_to(K.width / 2, K.height / 2));
+  ASSERT_TRUE(small.ok());
+  const Status wrong = outside->process(frame, *small, &b);
+  ASSERT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.error().message.find("preprocessed frame is 80x60"), std::string::npos) << wrong.error().message;
+}
+
 TEST(SurfelSlam, InvalidOptionsAreRejectedNamingTheField) {
   const Intrinsics K = Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(320, 240);
   SurfelSlamOptions o;
