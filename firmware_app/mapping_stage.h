@@ -6,8 +6,8 @@
 //                            the label image when due (RunSemantics::on_frame)
 //   trajectory               the frame's pose line (and '# lost ...' before it when lost)
 //
-// and it records the stage times of both stages into StageStats (the front stage's times travel
-// in the slot, so StageStats is only ever written by this thread).
+// and it records the times of the front and segment steps too into StageStats (they travel in the
+// slot, so StageStats is only ever written by this thread).
 //
 // Memory: create() allocates the SLAM (pool, pyramids, index map) and registers the stages;
 // step() allocates nothing. Threads: one thread at a time.

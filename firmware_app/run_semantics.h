@@ -1,10 +1,10 @@
 // The semantic half of `edgefusion run` (SemanticFusion, McCormac et al. ICRA 2017), in two parts
 // that run on different threads of the pipeline (firmware_app/run_pipeline.h):
-//   front stage, segment()       every label_every-th frame (and every frame whose label image is
+//   segment step, segment()      every label_every-th frame (and every frame whose label image is
 //                                due) the CNN segments the working frame (semantic/segmenter.h) into
 //                                a CnnResult that travels with the frame; segmentation needs no pose,
 //                                so it runs before the frame is tracked
-//   mapping stage, on_frame()    after the surfel SLAM tracked the frame: its CNN probabilities
+//   mapping step, on_frame()     after the surfel SLAM tracked the frame: its CNN probabilities
 //                                multiply into every surfel the new index map shows at the frame's
 //                                pose (semantic/label_fusion.h); lost frames are not fused;
 //                                every crf_every-th frame the dense CRF over the map (semantic/dense_crf.h);
@@ -42,7 +42,7 @@ namespace ef::app {
 // SurfelSlam map): shared by RunSemantics and the memory plan (memory_plan.h).
 semantic::DenseCrfOptions run_crf_options(const RunConfig& config);
 
-// The CNN's result for one frame, carried with the frame from the front stage to the mapping stage.
+// The CNN's result for one frame, carried with the frame from the segment step to the mapping step.
 struct CnnResult {
   bool valid = false;                // the CNN ran on this frame
   std::vector<float> probabilities;  // output height x width x classes (semantic::ProbabilityView)
@@ -60,12 +60,12 @@ class RunSemantics {
   static Result<std::unique_ptr<RunSemantics>> create(const RunConfig& config, const Intrinsics& working,
                                                       StageStats& stats);
 
-  // Front stage: whether the CNN runs on frame `frame_number` (0-based count of frames delivered):
+  // Segment step: whether the CNN runs on frame `frame_number` (0-based count of frames delivered):
   // a label update or a label image is due.
   bool cnn_due(int64_t frame_number) const;
   // Sizes `out` for this model and working size (start-up; allocates).
   void allocate(CnnResult& out) const;
-  // Front stage: segments `working` (the working size) into `out` (sized by allocate()).
+  // Segment step: segments `working` (the working size) into `out` (sized by allocate()).
   Status segment(const Frame& working, CnnResult& out);
 
   // Mapping stage, after slam.process() of frame `frame_number`; `cnn` is that frame's result
