@@ -165,6 +165,9 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
 
   std::vector<double> pre_ms, track_ms, fuse_ms, predict_ms, sum_ms, process_ms, cpu_ms, input_ms;
+  // Parts of fuse (fused frames) and predict, from FusionStats and PredictionTimings.
+  std::vector<double> associate_ms, clean_ms, create_ms, reorder_ms, clear_ms, render_ms, resolve_ms, pyramid_ms;
+  int64_t reorders = 0;
   std::vector<ef::TimedPose> estimate, reference;
   ef::slam::SlamFrameResult r;
   int64_t frames = 0, lost_measured = 0;
@@ -192,7 +195,21 @@ int main(int argc, char** argv) {
       const ef::slam::SlamTimings& t = r.timings;
       pre_ms.push_back(t.preprocess_ms);
       if (frames > 0) track_ms.push_back(t.track_ms);  // frame 0 has nothing to track
-      if (r.fused) fuse_ms.push_back(t.fuse_ms);
+      if (r.fused) {
+        fuse_ms.push_back(t.fuse_ms);
+        associate_ms.push_back(r.fusion.associate_ms);
+        clean_ms.push_back(r.fusion.clean_ms);
+        create_ms.push_back(r.fusion.create_ms);
+        if (t.reorder_ms > 0) {
+          reorder_ms.push_back(t.reorder_ms);
+          ++reorders;
+        }
+        const ef::slam::PredictionTimings& p = slam.predictor().timings();
+        clear_ms.push_back(p.clear_ms);
+        render_ms.push_back(p.render_ms);
+        resolve_ms.push_back(p.resolve_ms);
+        pyramid_ms.push_back(p.pyramid_ms);
+      }
       predict_ms.push_back(t.predict_ms);
       sum_ms.push_back(t.preprocess_ms + t.track_ms + t.fuse_ms + t.predict_ms);
       process_ms.push_back(t.total_ms);
@@ -218,7 +235,15 @@ int main(int argc, char** argv) {
   row("preprocess", pre_ms);
   row("track", track_ms);
   row("fuse (fused frames)", fuse_ms);
+  row("  associate", associate_ms);
+  row("  clean", clean_ms);
+  row("  create", create_ms);
+  row("  spatial reorder (frames it ran)", reorder_ms);
   row("predict", predict_ms);
+  row("  clear", clear_ms);
+  row("  render (transform, index map, discs)", render_ms);
+  row("  resolve", resolve_ms);
+  row("  pyramid", pyramid_ms);
   row("sum of the four (per frame)", sum_ms);
   row("process() total", process_ms);
   row("process() thread CPU time", cpu_ms);

@@ -21,7 +21,9 @@
 #include "semantic/label_store.h"
 #include "slam/model_prediction.h"
 #include "slam/preprocess.h"
+#include "slam/spatial_order.h"
 #include "slam/surfel_fusion.h"
+#include "slam/spatial_order.h"
 #include "slam/surfel_pool.h"
 #include "slam/tracker.h"
 
@@ -215,6 +217,9 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
         std::to_string(cap) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) +
             " bytes (label store " + std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");
   }
+  add("surfel spatial order", slam::SpatialOrder::bytes_for(static_cast<int64_t>(cap)),
+      "8 bytes x capacity + a " + std::to_string(slam::SpatialOrder::kKeys / 1024 * 4) +
+          " KiB histogram (slam/spatial_order.h)");
   {  // slam/model_prediction.h: predicted pyramid, index map (id + depth), winners, colours, rays
     const int s = pred.index_map_scale;
     size_t b = 0;

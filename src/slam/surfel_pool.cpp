@@ -106,6 +106,33 @@ void SurfelPool::copy_surfel(int64_t from, int64_t to) {
   std::memcpy(labels_ + to * kLabelBytesPerSurfel, labels_ + from * kLabelBytesPerSurfel, kLabelBytesPerSurfel);
 }
 
+namespace {
+
+// Bytes [offset, offset + 4) of every record of `n` records of `record` bytes: record i receives
+// those of record old_of_new[i], through scratch (4 n bytes). A 4-byte column is record = 4, offset 0.
+// memcpy moves bytes whatever the column's type (floats keep their bit patterns).
+void gather_word(unsigned char* base, std::size_t record, std::size_t offset, const int32_t* old_of_new, int64_t n,
+                 unsigned char* scratch) {
+  constexpr std::size_t kWord = 4;
+  for (int64_t i = 0; i < n; ++i)
+    std::memcpy(scratch + i * kWord, base + static_cast<std::size_t>(old_of_new[i]) * record + offset, kWord);
+  if (record == kWord) {
+    std::memcpy(base, scratch, static_cast<std::size_t>(n) * kWord);
+    return;
+  }
+  for (int64_t i = 0; i < n; ++i) std::memcpy(base + i * record + offset, scratch + i * kWord, kWord);
+}
+
+}  // namespace
+
+void SurfelPool::permute(const int32_t* old_of_new, unsigned char* scratch) {
+  static_assert(sizeof(float) == 4 && sizeof(uint32_t) == 4 && sizeof(int32_t) == 4 && kLabelBytesPerSurfel % 4 == 0);
+  void* const columns[] = {x_, y_, z_, nx_, ny_, nz_, radius_, confidence_, color_, init_time_, last_seen_};
+  for (void* c : columns) gather_word(static_cast<unsigned char*>(c), 4, 0, old_of_new, size_, scratch);
+  for (std::size_t w = 0; w < kLabelBytesPerSurfel; w += 4)
+    gather_word(labels_, kLabelBytesPerSurfel, w, old_of_new, size_, scratch);
+}
+
 void SurfelPool::remove(int64_t id) {
   const int64_t last = size_ - 1;
   if (id != last) copy_surfel(last, id);

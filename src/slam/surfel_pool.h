@@ -123,6 +123,10 @@ class SurfelPool {
 
   // Copies surfel `from` onto slot `to` (every column). Exposed for tests of the store's consistency.
   void copy_surfel(int64_t from, int64_t to);
+  // Reorders the surfels: slot i receives the surfel that was at old_of_new[i], for i in 0..size()-1
+  // (old_of_new must be a permutation of 0..size()-1; slam/spatial_order.h makes one). Every column
+  // moves, labels included. `scratch` (4 x size() bytes) is overwritten. Not counted as removals.
+  void permute(const int32_t* old_of_new, unsigned char* scratch);
 
  private:
   SurfelPool() = default;

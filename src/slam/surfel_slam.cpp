@@ -18,6 +18,7 @@ Status SurfelSlamOptions::validate() const {
   EF_RETURN_IF_ERROR(prediction.validate());
   EF_RETURN_IF_ERROR(fusion.validate());
   EF_RETURN_IF_ERROR(pool.validate());
+  EF_RETURN_IF_ERROR(spatial_order.validate());
   if (fusion.stable_confidence != prediction.stable_confidence)
     return error(ErrorCode::kInvalidArgument,
                  "slam: fusion.stable_confidence " + std::to_string(fusion.stable_confidence) +
@@ -38,6 +39,7 @@ std::string SurfelSlamOptions::describe() const {
   std::ostringstream s;
   s << "# preprocess\n" << preprocess.describe() << "# tracker\n" << tracker.describe() << "# prediction\n"
     << prediction.describe() << "# fusion\n" << fusion.describe() << "# pool\n" << pool.describe()
+    << "# spatial order\n" << spatial_order.describe()
     << "constant_velocity_guess: " << (constant_velocity_guess ? "true" : "false")
     << "  # initial guess: last pose (false) or constant velocity (true)\n"
     << "bootstrap_confidence_per_frame: " << bootstrap_confidence_per_frame
@@ -60,8 +62,9 @@ Result<SurfelSlam> SurfelSlam::create(const Intrinsics& working, const SurfelSla
   EF_ASSIGN_OR_RETURN(SurfelFusion fusion, SurfelFusion::create(working, options.prediction.index_map_scale,
                                                                 options.pool.capacity, options.fusion));
   EF_ASSIGN_OR_RETURN(SurfelPool pool, SurfelPool::create(options.pool));
+  EF_ASSIGN_OR_RETURN(SpatialOrder order, SpatialOrder::create(options.pool.capacity, options.spatial_order));
   SurfelSlam slam(options, working, std::move(pre), std::move(tracker), std::move(predictor), std::move(fusion),
-                  std::move(pool));
+                  std::move(pool), std::move(order));
   slam.T_world_last_ = options.initial_pose;
   // An empty index map at the initial pose: the first frame finds no candidates and creates surfels.
   EF_RETURN_IF_ERROR(slam.predictor_.predict(slam.pool_, slam.T_world_last_, 0, options.prediction.stable_confidence));
@@ -137,6 +140,12 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     t0 = Clock::now();
     EF_RETURN_IF_ERROR(fusion_.fuse(pre, frame.color.view(), T_world_cur, predictor_.index_map(), frame_index,
                                     &pool_, &result->fusion));
+    if (order_.due(frame_index)) {
+      // Between fusion and prediction: the index map is then rendered from the reordered ids.
+      const Clock::time_point t1 = Clock::now();
+      EF_RETURN_IF_ERROR(order_.reorder(pool_));
+      result->timings.reorder_ms = ms_since(t1);
+    }
     result->timings.fuse_ms = ms_since(t0);
     result->fused = true;
     ++fused_frames_;

@@ -28,6 +28,7 @@
 #include "io/ply_writer.h"
 #include "slam/model_prediction.h"
 #include "slam/preprocess.h"
+#include "slam/spatial_order.h"
 #include "slam/surfel_fusion.h"
 #include "slam/surfel_pool.h"
 #include "slam/tracker.h"
@@ -40,6 +41,7 @@ struct SurfelSlamOptions {
   PredictionOptions prediction;
   FusionOptions fusion;
   SurfelPoolOptions pool;
+  SpatialOrderOptions spatial_order;
   // Pose of the first frame, camera to world (metres). Default identity.
   SE3 initial_pose;
   // Initial guess of each frame's pose: false = the last tracked pose (ElasticFusion), true = the last
@@ -59,8 +61,10 @@ struct SurfelSlamOptions {
 };
 
 // Milliseconds per stage of the last process() call (steady clock).
+// fuse_ms includes reorder_ms: the spatial reordering of the pool (slam/spatial_order.h) on the
+// frames it is due, 0 on the others.
 struct SlamTimings {
-  double preprocess_ms = 0, track_ms = 0, fuse_ms = 0, predict_ms = 0, total_ms = 0;
+  double preprocess_ms = 0, track_ms = 0, fuse_ms = 0, reorder_ms = 0, predict_ms = 0, total_ms = 0;
 };
 
 struct SlamFrameResult {
@@ -103,19 +107,21 @@ class SurfelSlam {
 
   // Bytes allocated by create(), by part (for the memory budget).
   std::size_t pool_bytes() const { return pool_.bytes(); }
+  std::size_t spatial_order_bytes() const { return order_.bytes(); }
 
  private:
   Status track_fuse_predict(const Frame& frame, const Preprocessor& pre, SlamFrameResult* result);
 
   SurfelSlam(SurfelSlamOptions options, const Intrinsics& working, std::optional<Preprocessor> pre, Tracker tracker,
-             ModelPredictor predictor, SurfelFusion fusion, SurfelPool pool)
+             ModelPredictor predictor, SurfelFusion fusion, SurfelPool pool, SpatialOrder order)
       : options_(std::move(options)),
         working_(working),
         pre_(std::move(pre)),
         tracker_(std::move(tracker)),
         predictor_(std::move(predictor)),
         fusion_(std::move(fusion)),
-        pool_(std::move(pool)) {}
+        pool_(std::move(pool)),
+        order_(std::move(order)) {}
   float tracking_min_confidence() const;
 
   SurfelSlamOptions options_;
@@ -125,6 +131,7 @@ class SurfelSlam {
   ModelPredictor predictor_;
   SurfelFusion fusion_;
   SurfelPool pool_;
+  SpatialOrder order_;
   SE3 T_world_last_;         // pose of the last good frame = the pose the prediction was rendered at
   SE3 last_motion_;          // T_prev_cur of the last good frame pair (constant velocity guess)
   int64_t frames_ = 0;

@@ -356,7 +356,7 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
   }
   EXPECT_EQ(plan->total_bytes, sum);
   EXPECT_EQ(plan->budget_bytes, 256u * 1000 * 1000);
-  for (const char* part : {"source frame", "prepared frames", "slam tracker", "surfel pool",
+  for (const char* part : {"source frame", "prepared frames", "slam tracker", "surfel pool", "surfel spatial order",
                            "model prediction", "surfel fusion scratch", "stage statistics", "cnn model", "cnn arena",
                            "cnn packed weights", "segmenter buffers", "label fusion", "label rendering",
                            "map.ply class columns"})
@@ -392,6 +392,7 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   auto slam = slam::SurfelSlam::create(working, so);
   ASSERT_TRUE(slam.ok()) << to_string(slam.error());
   EXPECT_EQ(plan->bytes_of("surfel pool"), slam->pool_bytes());
+  EXPECT_EQ(plan->bytes_of("surfel spatial order"), slam->spatial_order_bytes());
   auto fusion = slam::SurfelFusion::create(working, so.prediction.index_map_scale, c.surfel_capacity, so.fusion);
   ASSERT_TRUE(fusion.ok());
   EXPECT_EQ(plan->bytes_of("surfel fusion scratch"), fusion->bytes());

@@ -194,6 +194,23 @@ TEST(SurfelPool, CopySurfelCopiesEveryColumn) {
   expect_tagged(pool, 1, 2);
 }
 
+TEST(SurfelPool, PermuteMovesEveryColumnAndKeepsCounters) {
+  SurfelPool pool = make_pool(12);
+  for (int i = 0; i < 9; ++i) append_tagged(pool, i);
+  const SurfelPoolCounters before = pool.counters();
+  const int32_t old_of_new[9] = {4, 8, 0, 1, 7, 2, 6, 5, 3};
+  std::vector<unsigned char> scratch(9 * 4, 0xAB);
+  pool.permute(old_of_new, scratch.data());
+  ASSERT_EQ(pool.size(), 9);
+  for (int i = 0; i < 9; ++i) expect_tagged(pool, i, old_of_new[i]);
+  EXPECT_EQ(pool.counters().created, before.created);
+  EXPECT_EQ(pool.counters().removed, before.removed);
+  // The identity leaves everything in place.
+  const int32_t identity[9] = {0, 1, 2, 3, 4, 5, 6, 7, 8};
+  pool.permute(identity, scratch.data());
+  for (int i = 0; i < 9; ++i) expect_tagged(pool, i, old_of_new[i]);
+}
+
 // A full pool of 10 (evict_unseen_frames 30) at frame 200:
 //   tag 0..2  stable (confidence 20), last seen at frame 0 (age 200): never evicted
 //   tag 3..6  unstable, ages 40, 100, 35, 50 (last_seen 160, 100, 165, 150)
