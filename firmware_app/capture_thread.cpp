@@ -24,10 +24,7 @@ CaptureThread::~CaptureThread() { stop(); }
 void CaptureThread::start(int cpu) {
   if (thread_.joinable()) return;
   thread_ = std::thread([this, cpu] {
-    if (cpu >= 0) {
-      const std::string why = pin_current_thread_to_cpu(cpu);
-      if (!why.empty()) std::fprintf(stderr, "warning: capture thread: %s; it runs unpinned\n", why.c_str());
-    }
+    pin_current_thread_or_warn(cpu, "capture");
     produce();
   });
 }

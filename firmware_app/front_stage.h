@@ -83,7 +83,6 @@ class FrontStage {
     if (capture_ != nullptr) capture_->request_stop();
   }
 
-  int64_t delivered() const { return delivered_; }
   // Live cameras: frames dropped because the capture ring was full, and frames the camera reported
   // corrupt (skipped). 0 for recordings.
   uint64_t dropped_overload() const { return capture_ != nullptr ? capture_->dropped() : 0; }

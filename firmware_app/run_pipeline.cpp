@@ -23,12 +23,6 @@ constexpr std::chrono::milliseconds kPoll(200);
 // The steps every prepared slot passes through, in order (StageRing stages).
 constexpr int kFront = 0, kSegment = 1, kMapping = 2, kStages = 3;
 
-void pin_or_warn(int cpu, const char* thread_name) {
-  if (cpu < 0) return;
-  const std::string why = pin_current_thread_to_cpu(cpu);
-  if (!why.empty()) std::fprintf(stderr, "warning: %s thread: %s; it runs unpinned\n", thread_name, why.c_str());
-}
-
 // The process's peak resident memory so far, bytes (Linux reports kilobytes).
 double peak_rss_bytes() {
   struct rusage u {};
@@ -48,10 +42,9 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                                  {"pipeline.cnn_cpu", config.cnn_cpu},
                                  {"pipeline.mapping_cpu", config.mapping_cpu},
                                  {"pipeline.capture_cpu", config.capture_cpu}}) {
-    const unsigned cores = std::thread::hardware_concurrency();
-    if (cpu >= 0 && cores > 0 && static_cast<unsigned>(cpu) >= cores)
-      return error(ErrorCode::kInvalidArgument, std::string(key) + " " + std::to_string(cpu) +
-                                                    ": this machine has cores 0.." + std::to_string(cores - 1));
+    if (cpu < 0) continue;  // not pinned
+    if (const std::string why = cpu_core_missing(cpu); !why.empty())
+      return error(ErrorCode::kInvalidArgument, std::string(key) + " " + std::to_string(cpu) + ": " + why);
   }
   std::unique_ptr<RunPipeline> p(new RunPipeline(config, source, stats));
   std::error_code ec;
@@ -161,19 +154,19 @@ void RunPipeline::segment_loop() {
 RunOutcome RunPipeline::run(RunObserver& observer) {
   RunOutcome outcome;
   const auto start = std::chrono::steady_clock::now();
-  pin_or_warn(config_.mapping_cpu, "mapping");
+  pin_current_thread_or_warn(config_.mapping_cpu, "mapping");
   front_->start_capture();
   StageRing<PreparedFrame>& ring = *ring_;
   std::thread front_thread, segment_thread;
   if (config_.threads >= 2) {
     front_thread = std::thread([this] {
-      pin_or_warn(config_.front_cpu, "front stage");
+      pin_current_thread_or_warn(config_.front_cpu, "front stage");
       front_loop(/*with_segment=*/config_.threads == 2);
     });
   }
   if (config_.threads == 3) {
     segment_thread = std::thread([this] {
-      pin_or_warn(config_.cnn_cpu, "CNN");
+      pin_current_thread_or_warn(config_.cnn_cpu, "CNN");
       segment_loop();
     });
   }

@@ -94,7 +94,6 @@ class RunPipeline {
   const RunSemantics* semantics() const { return semantics_.get(); }
   // Frames dropped so far: a live camera's overload (ring full) plus the frames it reported corrupt.
   uint64_t frames_dropped() const { return front_->dropped_overload() + front_->corrupt_dropped(); }
-  const RunConfig& config() const { return config_; }
   // Bytes of one prepared slot (working frame, pyramids, CNN result), for the memory line.
   std::size_t slot_bytes() const { return slot_bytes_; }
 

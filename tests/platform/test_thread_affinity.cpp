@@ -48,6 +48,29 @@ TEST(ThreadAffinity, MissingCoreIsNamed) {
   std::thread u([&] { why = pin_current_thread_to_cpu(-1); });
   u.join();
   EXPECT_NE(why.find("core -1"), std::string::npos) << why;
+  // The check alone, as configuration validation uses it: core 0 always exists.
+  EXPECT_EQ(cpu_core_missing(0), "");
+  EXPECT_NE(cpu_core_missing(4000).find("core 4000 does not exist"), std::string::npos);
+}
+
+TEST(ThreadAffinity, OptionalPinningWarnsAndGoesOn) {
+  cpu_set_t before, after_none, after_bad;
+  bool ok = true;
+  std::thread t([&] {
+    ok &= sched_getaffinity(0, sizeof before, &before) == 0;
+    pin_current_thread_or_warn(-1, "test");  // not pinned: nothing changes
+    ok &= sched_getaffinity(0, sizeof after_none, &after_none) == 0;
+    testing::internal::CaptureStderr();
+    pin_current_thread_or_warn(4000, "test");  // a missing core: a warning, the thread runs on
+    const std::string warning = testing::internal::GetCapturedStderr();
+    ok &= warning.find("warning: test thread: core 4000 does not exist") != std::string::npos;
+    ok &= warning.find("runs unpinned") != std::string::npos;
+    ok &= sched_getaffinity(0, sizeof after_bad, &after_bad) == 0;
+  });
+  t.join();
+  EXPECT_TRUE(ok);
+  EXPECT_TRUE(CPU_EQUAL(&before, &after_none));
+  EXPECT_TRUE(CPU_EQUAL(&before, &after_bad));
 }
 
 }  // namespace
