@@ -1,5 +1,6 @@
 #include "memory_plan.h"
 
+#include "mapping_stage.h"
 #include "run_semantics.h"
 
 #include <algorithm>
@@ -173,10 +174,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
           " x 8 bytes (colour, depth, labels)");
 
   // SLAM (slam/surfel_slam.h) with the options `run` gives it.
-  slam::PreprocessOptions pre;
-  slam::PredictionOptions pred;
-  slam::FusionOptions fus;
-  slam::TrackerOptions trk;
+  const slam::SurfelSlamOptions slam = slam_options(config);
+  const slam::PreprocessOptions& pre = slam.preprocess;
+  const slam::PredictionOptions& pred = slam.prediction;
+  const slam::FusionOptions& fus = slam.fusion;
+  const slam::TrackerOptions& trk = slam.tracker;
   const int levels = pre.levels;
   // slam/preprocess.h (Preprocessor::bytes()): the pyramid, the cut depth, the padded bilateral
   // input, its weights and rows: one per prepared frame (below).

@@ -48,6 +48,9 @@ constexpr OptionDoc kOptions[] = {
     {"mapping.icp_weight", "icp_weight", "tracking: weight of the ICP term, >= 0; default 10"},
     {"mapping.rgb_weight", "rgb_weight", "tracking: weight of the photometric term, >= 0; default 0.25"},
     {"mapping.depth_cutoff_m", "depth_cutoff_m", "metres, > 0; depths beyond are ignored; default 8"},
+    {"mapping.index_map_scale", "index_map_scale",
+     "index map cells per working pixel along each axis, 1..4; 4 = ElasticFusion's; 2 maps faster "
+     "(docs/results.md); default 4"},
     {"labels.enabled", "labels", "CNN segmentation + Bayesian label fusion; false = geometry only; default true"},
     {"labels.model", "model", ".efm segmentation model; default the shipped models/edgefusion-seg.efm"},
     {"labels.every", "label_every", "frames between CNN label updates, 1..1000000; default 10 (the paper's)"},
@@ -164,6 +167,7 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "mapping.icp_weight") return number_text(c.icp_weight);
   if (path == "mapping.rgb_weight") return number_text(c.rgb_weight);
   if (path == "mapping.depth_cutoff_m") return number_text(c.depth_cutoff_m);
+  if (path == "mapping.index_map_scale") return std::to_string(c.index_map_scale);
   if (path == "labels.enabled") return bool_text(c.labels);
   if (path == "labels.model") return c.model.empty() ? "" : quoted(c.model);
   if (path == "labels.every") return std::to_string(c.label_every);
@@ -386,6 +390,10 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     auto v = parse_integer(value, 1, 100'000'000);
     if (!v.ok()) return bad("is not an integer in 1..100000000");
     config.surfel_capacity = *v;
+  } else if (path == "mapping.index_map_scale") {
+    auto v = parse_integer(value, 1, 4);
+    if (!v.ok()) return bad("is not an integer in 1..4 (index map cells per working pixel, each axis)");
+    config.index_map_scale = static_cast<int>(*v);
   } else if (path.rfind("pipeline.", 0) == 0) {
     const bool cpu = path.size() > 4 && path.compare(path.size() - 4, 4, "_cpu") == 0;
     const long long lo = cpu ? -1 : path == "pipeline.threads" ? 1 : 2;

@@ -52,6 +52,7 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.icp_weight, b.icp_weight);
   EXPECT_EQ(a.rgb_weight, b.rgb_weight);
   EXPECT_EQ(a.depth_cutoff_m, b.depth_cutoff_m);
+  EXPECT_EQ(a.index_map_scale, b.index_map_scale);
   EXPECT_EQ(a.labels, b.labels);
   EXPECT_EQ(a.model, b.model);
   EXPECT_EQ(a.label_every, b.label_every);
@@ -112,7 +113,7 @@ TEST(ConfigYaml, SectionsSetTheOptions) {
   auto c = read_text(
       "source: synthetic:\n"
       "resolution: 320x240\n"
-      "mapping: {surfel_capacity: 500000, icp_weight: 5, rgb_weight: 0.5, depth_cutoff_m: 4.5}\n"
+      "mapping: {surfel_capacity: 500000, icp_weight: 5, rgb_weight: 0.5, depth_cutoff_m: 4.5, index_map_scale: 2}\n"
       "labels: {enabled: true, model: net.efm, every: 5, out: lab, out_every: 3, visibility: false}\n"
       "crf:\n"
       "  every: 100\n"
@@ -125,6 +126,7 @@ TEST(ConfigYaml, SectionsSetTheOptions) {
   EXPECT_EQ(c->icp_weight, 5.0);
   EXPECT_EQ(c->rgb_weight, 0.5);
   EXPECT_EQ(c->depth_cutoff_m, 4.5f);
+  EXPECT_EQ(c->index_map_scale, 2);
   EXPECT_TRUE(c->labels);
   EXPECT_EQ(c->model, "net.efm");
   EXPECT_EQ(c->label_every, 5);
@@ -202,6 +204,7 @@ TEST(ConfigYaml, EveryErrorNamesFileLineKeyAndValue) {
       {"mapping:\n  surfel_capacity: lots\n", {"line 2", "'mapping.surfel_capacity'", "lots"}},
       {"mapping:\n  surfel_capacity: 0\n", {"line 2", "'mapping.surfel_capacity'", "'0'"}},
       {"mapping: {depth_cutoff_m: -1}\n", {"'mapping.depth_cutoff_m'", "-1"}},
+      {"mapping: {index_map_scale: 8}\n", {"'mapping.index_map_scale'", "'8'", "1..4"}},
       {"memory: {budget_mb: 0}\n", {"'memory.budget_mb'", "'0'"}},
       {"labels: {every: 0}\n", {"'labels.every'", "'0'"}},
       {"labels: {model: }\n", {"'labels.model'", "empty"}},
@@ -276,6 +279,7 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.icp_weight = 0.1;
   c.rgb_weight = 1.0 / 3.0;
   c.depth_cutoff_m = 3.3f;
+  c.index_map_scale = 3;
   c.labels = false;
   c.model = "{model}.efm";
   c.label_every = 7;
@@ -370,6 +374,16 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
   EXPECT_NEAR(double(plan->bytes_of("surfel fusion scratch")), 8.7e6, 0.1e6);
   EXPECT_NEAR(double(plan->bytes_of("map.ply class columns")), 5e6, 1);
   EXPECT_TRUE(plan->within_budget()) << plan->table();
+  // mapping.index_map_scale 2: the index map is a quarter (640x480 cells instead of 1280x960).
+  {
+    RunConfig half = c;
+    half.index_map_scale = 2;
+    auto p2 = plan_memory(half);
+    ASSERT_TRUE(p2.ok()) << to_string(p2.error());
+    EXPECT_EQ(plan->bytes_of("model prediction") - p2->bytes_of("model prediction"),
+              (1280u * 960 - 640u * 480) * 8);
+    EXPECT_LT(p2->bytes_of("surfel fusion scratch"), plan->bytes_of("surfel fusion scratch"));
+  }
 
   // Geometry only: no segmenter parts, no model file needed.
   c.labels = false;
