@@ -57,10 +57,13 @@ def main():
     ap.add_argument("--frames", type=int, default=1200)
     ap.add_argument("--every", type=int, default=10, help="evaluate every K-th frame (and fuse every K-th)")
     ap.add_argument("--crf-every", type=int, default=500, help="SF-CRF: CRF every M frames (paper: 500)")
+    ap.add_argument("--run-config", default="",
+                    help="configuration file given to every `edgefusion run` (e.g. mapping.index_map_scale)")
     ap.add_argument("--sequences", nargs="*", default=[],
                     help="existing TUM folders with labels/ to use instead of rendering seeds")
     args = ap.parse_args()
     ef = args.edgefusion
+    run_config = ["--config", args.run_config] if args.run_config else []
     for s in args.seeds:
         if s in HELD_OUT_FORBIDDEN:
             sys.exit(f"semantic_table: seed {s} was used in training, validation or the model's test set")
@@ -94,7 +97,7 @@ def main():
             d = os.path.join(out, method.lower())
             log = run([ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
                        "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
-                       "--quiet"] + extra)
+                       "--quiet"] + run_config + extra)
             print("  " + " ".join(l for l in log.splitlines() if l.startswith("frames")), file=sys.stderr)
             rows.append((name, method, evaluate(ef, gt, os.path.join(d, "labels"), args.every)))
 

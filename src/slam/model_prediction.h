@@ -68,10 +68,11 @@ namespace ef::slam {
 struct PredictionOptions {
   // Index map resolution: index pixels per working pixel along each axis (1..4). Default 4 as
   // ElasticFusion: up to 16 candidate surfels per input pixel for fusion. Measured at 320x240 on one
-  // x86-64 core (bench/slam_predict, 300k surfels, ~100k of them in view; a shared 2-vCPU machine):
-  // the whole predict() takes 12.8 ms at 4x and 12.3 ms at 2x (clearing 1280x960 x 8 bytes is
-  // 0.27 ms against 0.06 ms; the scatter of the centres costs about the same in both), so the finer
-  // map is kept: the time goes into rasterising the tracking discs. Fusion must use the same scale.
+  // x86-64 core (bench/slam_stages, all 1000 7-Scenes frames, ~470k surfels, the pool in spatial
+  // order): 4x: fuse 11.95 + predict 10.57 ms median, ATE 2.77 cm; 2x: 10.92 + 8.05 ms, ATE 2.74
+  // cm, 16% fewer surfels (fewer near-duplicates get their own cell). 4x stays the default (the
+  // semantic results were measured with it); `run` offers 2x as mapping.index_map_scale. Fusion
+  // must use the same scale.
   int index_map_scale = 4;
   // Surfels with confidence >= this (dimensionless accumulated weight) are stable and drawn into the
   // tracking maps (ElasticFusion: 10). predict(..., tracking_min_confidence) overrides it per call

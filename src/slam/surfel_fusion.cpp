@@ -247,6 +247,16 @@ inline bool candidate_better(bool updated, float d2, float conf, bool have_best,
 // decides, which it does at the pose the map was rendered from).
 inline int window_start(float centre, float half) { return static_cast<int>(std::ceil(centre - half)); }
 
+// Bit k set when ids[from + k] >= 0 (an occupied index cell), for from <= from + k < to, at most 32
+// cells. Branch-free on purpose: about nine in ten cells of a window are empty (7-Scenes at 320x240,
+// scale 4: 1.9 occupied of 20.5 cells visited per pixel), in no pattern a branch predictor learns.
+// Callers then visit the set bits in ascending order, the order a plain loop over the row has.
+inline uint32_t occupied_cells(const int32_t* ids, int from, int to) {
+  uint32_t bits = 0;
+  for (int bx = from; bx < to; ++bx) bits |= static_cast<uint32_t>(ids[bx] >= 0) << (bx - from);
+  return bits;
+}
+
 }  // namespace
 
 // One pixel's candidates: the index pixels of its window, the gates, and the best by candidate_better.
@@ -322,10 +332,10 @@ void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, co
     // visits nearly the same rows kSurfelPrefetchPixels x scale cells further on: fetch its
     // candidates' data now, so it has arrived when that pixel is scanned. Only hints: no result
     // depends on them.
-    const int ahead = bx0 + kSurfelPrefetchPixels * scale_;
-    for (int bx = std::max(ahead, 0); bx < std::min(ahead + scale_, iw); ++bx) {
-      const int32_t id = ids[bx];
-      if (id < 0 || id >= fc.pool_size) continue;
+    const int ahead = std::max(bx0 + kSurfelPrefetchPixels * scale_, 0);
+    for (uint32_t bits = occupied_cells(ids, ahead, std::min(ahead + scale_, iw)); bits != 0; bits &= bits - 1) {
+      const int32_t id = ids[ahead + __builtin_ctz(bits)];
+      if (id >= fc.pool_size) continue;
       __builtin_prefetch(&state_[id]);
       __builtin_prefetch(pool.nx() + id);
       __builtin_prefetch(pool.ny() + id);
@@ -339,8 +349,11 @@ void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, co
       __builtin_prefetch(pool.color() + id);
       __builtin_prefetch(pool.last_seen() + id);
     }
-    for (int bx = std::max(bx0, 0); bx < std::min(bx1, iw); ++bx)
+    const int from = std::max(bx0, 0);
+    for (uint32_t bits = occupied_cells(ids, from, std::min(bx1, iw)); bits != 0; bits &= bits - 1) {
+      const int bx = from + __builtin_ctz(bits);
       visit_cell(fc, pool, px, ids[bx], depths[bx], bx, by, true, ws, st);
+    }
   }
   const int margin = options_.search_margin_index_px;
   if (margin == 0 || (ws->best >= 0 && !ws->best_updated)) return;
@@ -351,10 +364,15 @@ void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, co
     // Rows through the block visit [x0, bx0) and [bx1, x1); the others [x0, x1).
     const bool base_row = by >= by0 && by < by1;
     const int gap_from = base_row ? bx0 : x1, gap_to = base_row ? bx1 : x1;
-    for (int bx = std::max(x0, 0); bx < std::min(gap_from, iw); ++bx)
+    const int left = std::max(x0, 0), right = std::max(gap_to, 0);
+    for (uint32_t bits = occupied_cells(ids, left, std::min(gap_from, iw)); bits != 0; bits &= bits - 1) {
+      const int bx = left + __builtin_ctz(bits);
       visit_cell(fc, pool, px, ids[bx], depths[bx], bx, by, false, ws, st);
-    for (int bx = std::max(gap_to, 0); bx < std::min(x1, iw); ++bx)
+    }
+    for (uint32_t bits = occupied_cells(ids, right, std::min(x1, iw)); bits != 0; bits &= bits - 1) {
+      const int bx = right + __builtin_ctz(bits);
       visit_cell(fc, pool, px, ids[bx], depths[bx], bx, by, false, ws, st);
+    }
   }
 }
 
