@@ -49,8 +49,8 @@ constexpr OptionDoc kOptions[] = {
     {"mapping.rgb_weight", "rgb_weight", "tracking: weight of the photometric term, >= 0; default 0.25"},
     {"mapping.depth_cutoff_m", "depth_cutoff_m", "metres, > 0; depths beyond are ignored; default 8"},
     {"mapping.index_map_scale", "index_map_scale",
-     "index map cells per working pixel along each axis, 1..4; 4 = ElasticFusion's; 2 maps faster "
-     "(docs/results.md); default 4"},
+     "index map cells per working pixel along each axis, 1..4; 4 = ElasticFusion's, slower for the same "
+     "accuracy at 320x240 (docs/results.md); default 2"},
     {"labels.enabled", "labels", "CNN segmentation + Bayesian label fusion; false = geometry only; default true"},
     {"labels.model", "model", ".efm segmentation model; default the shipped models/edgefusion-seg.efm"},
     {"labels.every", "label_every", "frames between CNN label updates, 1..1000000; default 10 (the paper's)"},

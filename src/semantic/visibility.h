@@ -1,8 +1,8 @@
 // Which surfels a camera actually sees, for label fusion and label rendering.
 //
-// The index map (slam/index_map.h) is 4x finer than the image and holds surfel centres as points, so
-// a pixel's 16 cells also catch centres of surfels hidden behind the visible surface (their cells are
-// simply not covered by a nearer centre). Such a surfel must not take the CNN's label of the
+// The index map (slam/index_map.h) is 2x (up to 4x) finer than the image and holds surfel centres
+// as points, so a pixel's 4 (up to 16) cells also catch centres of surfels hidden behind the visible
+// surface (their cells are simply not covered by a nearer centre). Such a surfel must not take the CNN's label of the
 // occluding object (the paper's update is over the *visible* surfels), nor show in a rendering. The
 // test: a surfel is visible at a pixel when its camera depth agrees with the depth measured there,
 //   |z_surfel - z_measured| <= abs_m + rel * z_measured,

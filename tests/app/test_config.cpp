@@ -366,23 +366,24 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
                            "map.ply class columns"})
     EXPECT_GT(plan->bytes_of(part), 0u) << part << " missing in\n" << plan->table();
   EXPECT_EQ(plan->bytes_of("dense crf"), 0u);  // off by default
-  // docs/architecture.md, memory budget: 60 bytes per surfel; 640x480 x 8 source frame; the 4x index
-  // map 9.8 MB of the 13-14 MB of prediction at 320x240; fusion scratch 8.7 MB.
+  // docs/architecture.md, memory budget: 60 bytes per surfel; 640x480 x 8 source frame; the 2x index
+  // map 2.5 MB of the 7.0 MB of prediction at 320x240; fusion scratch 5.9 MB; spatial order 9.0 MB.
   EXPECT_NEAR(double(plan->bytes_of("surfel pool")), 60e6, 1e3);
   EXPECT_EQ(plan->bytes_of("source frame"), 640u * 480 * 8);
-  EXPECT_NEAR(double(plan->bytes_of("model prediction")), 14.4e6, 0.3e6);
-  EXPECT_NEAR(double(plan->bytes_of("surfel fusion scratch")), 8.7e6, 0.1e6);
+  EXPECT_NEAR(double(plan->bytes_of("model prediction")), 7.0e6, 0.1e6);
+  EXPECT_NEAR(double(plan->bytes_of("surfel fusion scratch")), 5.9e6, 0.1e6);
+  EXPECT_NEAR(double(plan->bytes_of("surfel spatial order")), 9.0e6, 0.1e6);
   EXPECT_NEAR(double(plan->bytes_of("map.ply class columns")), 5e6, 1);
   EXPECT_TRUE(plan->within_budget()) << plan->table();
-  // mapping.index_map_scale 2: the index map is a quarter (640x480 cells instead of 1280x960).
+  // mapping.index_map_scale 4 (ElasticFusion's): the index map is four times larger (1280x960 cells
+  // instead of 640x480), and so is fusion's list of seen surfels.
   {
-    RunConfig half = c;
-    half.index_map_scale = 2;
-    auto p2 = plan_memory(half);
-    ASSERT_TRUE(p2.ok()) << to_string(p2.error());
-    EXPECT_EQ(plan->bytes_of("model prediction") - p2->bytes_of("model prediction"),
-              (1280u * 960 - 640u * 480) * 8);
-    EXPECT_LT(p2->bytes_of("surfel fusion scratch"), plan->bytes_of("surfel fusion scratch"));
+    RunConfig fine = c;
+    fine.index_map_scale = 4;
+    auto p4 = plan_memory(fine);
+    ASSERT_TRUE(p4.ok()) << to_string(p4.error());
+    EXPECT_EQ(p4->bytes_of("model prediction") - plan->bytes_of("model prediction"), (1280u * 960 - 640u * 480) * 8);
+    EXPECT_NEAR(double(p4->bytes_of("surfel fusion scratch")), 8.7e6, 0.1e6);
   }
 
   // Geometry only: no segmenter parts, no model file needed.

@@ -32,7 +32,15 @@ SurfelPool make_pool(int64_t capacity = 200'000) {
   return std::move(p).value();
 }
 
-ModelPredictor make_predictor(const Intrinsics& K, int levels = 3, const PredictionOptions& o = {}) {
+// The index-map tests below place surfels on the cells of a 4x index map (ElasticFusion's scale;
+// the default is 2): they use these options unless they pass their own.
+PredictionOptions scale4_options() {
+  PredictionOptions o;
+  o.index_map_scale = 4;
+  return o;
+}
+
+ModelPredictor make_predictor(const Intrinsics& K, int levels = 3, const PredictionOptions& o = scale4_options()) {
   auto p = ModelPredictor::create(K, levels, o);
   EXPECT_TRUE(p.ok()) << to_string(p.error());
   return std::move(p).value();
