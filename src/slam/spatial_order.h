@@ -14,7 +14,9 @@
 // are appended at the end in image order, which is itself spatially coherent.
 //
 // Ids change, as with any removal: the caller (SurfelSlam) reorders between fusion and prediction,
-// so the index map is rendered from the reordered pool. Nothing else keeps ids across frames.
+// so the index map is rendered from the reordered pool. Nothing else keeps ids across frames; the
+// fusion's round-robin lifetime sweep (surfel_fusion.h) goes on at the same position over the new
+// ids, so a surfel may wait one sweep longer for its lifetime check.
 //
 // Memory: create() allocates 8 bytes per surfel of capacity (the order and a gather scratch) and a
 // 1 MiB histogram; reorder() does not allocate. Cost: a few passes over the pool (measured in
@@ -55,9 +57,10 @@ class SpatialOrder {
   SpatialOrder(SpatialOrder&&) noexcept = default;
   SpatialOrder& operator=(SpatialOrder&&) noexcept = default;
 
-  // Whether the pass is due after frame `frame_index` (0-based) has been fused.
-  bool due(int64_t frame_index) const {
-    return options_.every_frames > 0 && (frame_index + 1) % options_.every_frames == 0;
+  // Whether the pass is due after the fused frame of 0-based index `fused_index` (counting fused
+  // frames only): the every_frames-th, 2 every_frames-th, ... fused frame.
+  bool due(int64_t fused_index) const {
+    return options_.every_frames > 0 && (fused_index + 1) % options_.every_frames == 0;
   }
   // Reorders `pool` (size() <= the capacity given to create(); a larger pool is an error,
   // kInvalidArgument, and the pool is untouched). No heap allocation.

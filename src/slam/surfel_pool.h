@@ -19,7 +19,8 @@
 //
 // Ids are dense: removing surfel i moves the last surfel into slot i (every column, labels included,
 // so anything stored per surfel travels with it). Ids are therefore only stable between removals;
-// index maps are rebuilt every frame and must not be kept across a removal.
+// index maps are rebuilt every frame and must not be kept across a removal. permute() (used by
+// slam/spatial_order.h) reorders all ids at once, every column moving with its surfel.
 //
 // Full pool policy (SurfelPool::reserve_for_new): new surfels are created while there is room. When
 // the pool is full, unstable surfels not seen for `evict_unseen_frames` frames are evicted (oldest

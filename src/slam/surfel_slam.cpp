@@ -140,7 +140,7 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     t0 = Clock::now();
     EF_RETURN_IF_ERROR(fusion_.fuse(pre, frame.color.view(), T_world_cur, predictor_.index_map(), frame_index,
                                     &pool_, &result->fusion));
-    if (order_.due(frame_index)) {
+    if (order_.due(fused_frames_)) {
       // Between fusion and prediction: the index map is then rendered from the reordered ids.
       const Clock::time_point t1 = Clock::now();
       EF_RETURN_IF_ERROR(order_.reorder(pool_));

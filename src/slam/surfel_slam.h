@@ -7,6 +7,7 @@
 //                          is "no motion" (ElasticFusion) or constant velocity (option)
 //           ──fuse───────> the surfel pool (slam/surfel_fusion.h), associating through the index map
 //                          rendered at the last tracked pose (no second render per frame)
+//           ──reorder────> every 30th fused frame, the pool regrouped by space (slam/spatial_order.h)
 //           ──predict────> model maps + index map at T_world_cam(k), for frame k+1
 //
 // A lost frame (TrackResult::lost) is not fused and does not move the prediction: the next frame is
