@@ -212,34 +212,20 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
     b += 3 * px(ks.w, ks.h) * sizeof(float);
     add("slam tracker", b, "row tiles, SO(3) level " + std::to_string(so3_level) + " images and rays");
   }
-  {  // slam/surfel_pool.cpp: one block of 64-byte aligned columns
-    const size_t b = 8 * round64(cap * sizeof(float)) + 3 * round64(cap * sizeof(uint32_t)) +
-                     round64(cap * slam::SurfelPool::kLabelBytesPerSurfel);
-    add("surfel pool", b,
-        std::to_string(cap) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) +
-            " bytes (label store " + std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");
-  }
+  add("surfel pool", slam::SurfelPool::bytes_for(config.surfel_capacity),
+      std::to_string(cap) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) + " bytes (label store " +
+          std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");
   add("surfel spatial order", slam::SpatialOrder::bytes_for(static_cast<int64_t>(cap)),
       "8 bytes x capacity + a " + std::to_string(slam::SpatialOrder::kKeys / 1024 * 4) +
           " KiB histogram (slam/spatial_order.h)");
-  {  // slam/model_prediction.h: predicted pyramid, index map (id + depth), winners, colours, rays
+  {
     const int s = pred.index_map_scale;
-    size_t b = 0;
-    for (int l = 0; l < levels; ++l) {
-      const Size2 z = level_size(w, h, l);
-      b += px(z.w, z.h) * kLevelBytesPerPixel;
-    }
-    b += px(w * s, h * s) * (sizeof(int32_t) + sizeof(float));
-    b += px(w, h) * (sizeof(int32_t) + sizeof(Rgb8)) + (2 * static_cast<size_t>(w) + static_cast<size_t>(h)) * sizeof(float);
-    add("model prediction", b, std::to_string(s) + "x index map " + size_text(w * s, h * s) + " x 8 bytes + " +
-                                   std::to_string(levels) + " predicted levels");
+    add("model prediction", slam::ModelPredictor::bytes_for(w, h, levels, pred),
+        std::to_string(s) + "x index map " + size_text(w * s, h * s) + " x 8 bytes + " + std::to_string(levels) +
+            " predicted levels");
   }
-  {  // slam/surfel_fusion.h: 4 bytes per surfel, per seen entry and 2 x per working pixel
-    const size_t index_px = px(w, h) * static_cast<size_t>(pred.index_map_scale * pred.index_map_scale);
-    const size_t seen = std::min(cap, index_px) + static_cast<size_t>(fus.lifetime_sweep_per_frame);
-    add("surfel fusion scratch", (cap + seen + 2 * px(w, h)) * 4,
-        "4 bytes x (capacity + min(capacity, index cells) + sweep + 2 x working pixels)");
-  }
+  add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, pred.index_map_scale, config.surfel_capacity, fus),
+      "4 bytes x (capacity + min(capacity, index cells) + sweep + 2 x working pixels)");
   const int stages = kRunStages + (config.labels ? kLabelStages : 0);
   add("stage statistics", static_cast<size_t>(stages + 1) * kStageSamples * sizeof(double),
       std::to_string(stages) + " stages + 1 scratch x " + std::to_string(kStageSamples) + " samples x 8 bytes");

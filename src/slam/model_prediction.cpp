@@ -125,6 +125,31 @@ Result<ModelPredictor> ModelPredictor::create(const Intrinsics& working, int lev
   return p;
 }
 
+namespace {
+// Per pixel of every level: depth, vertex, normal, intensity and the two gradients.
+constexpr std::size_t kLevelBytesPerPixel = sizeof(float) + 2 * sizeof(Eigen::Vector3f) + 3 * sizeof(float);
+}  // namespace
+
+std::size_t ModelPredictor::bytes_for(int width, int height, int levels, const PredictionOptions& options) {
+  const auto px = [](int w, int h) { return static_cast<std::size_t>(w > 0 ? w : 0) * static_cast<std::size_t>(h > 0 ? h : 0); };
+  std::size_t b = 0;
+  int w = width, h = height;
+  for (int l = 0; l < levels; ++l) {  // Intrinsics::pyramid_level halves, rounding down
+    b += px(w, h) * kLevelBytesPerPixel;
+    w /= 2;
+    h /= 2;
+  }
+  const int s = options.index_map_scale;
+  b += px(width * s, height * s) * (sizeof(int32_t) + sizeof(float));  // index map: id + depth
+  b += px(width, height) * (sizeof(int32_t) + sizeof(Rgb8));             // winners, colours
+  b += (2 * static_cast<std::size_t>(width) + static_cast<std::size_t>(height)) * sizeof(float);  // rays, scratch row
+  return b;
+}
+
+std::size_t ModelPredictor::bytes() const {
+  return bytes_for(level_[0].intrinsics.width, level_[0].intrinsics.height, levels_, options_);
+}
+
 PyramidView ModelPredictor::pyramid_view() const {
   PyramidView view;
   view.levels = levels_;

@@ -156,6 +156,10 @@ class ModelPredictor {
   // pyramid levels (1..kTrackerMaxLevels; the coarsest must be at least 8x8, as the Preprocessor's).
   // Errors (kInvalidArgument): invalid options, intrinsics or level count.
   static Result<ModelPredictor> create(const Intrinsics& working, int levels, const PredictionOptions& options = {});
+  // Bytes create() allocates for a width x height working image, `levels` levels and options'
+  // index_map_scale; bytes() of a created predictor.
+  static std::size_t bytes_for(int width, int height, int levels, const PredictionOptions& options);
+  std::size_t bytes() const;
 
   ModelPredictor(ModelPredictor&&) noexcept = default;
   ModelPredictor& operator=(ModelPredictor&&) noexcept = default;

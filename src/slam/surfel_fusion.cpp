@@ -110,6 +110,26 @@ struct SurfelFusion::PixelContext {
   float gate = 0;       // depth gate at p_i.z(), metres
 };
 
+namespace {
+
+// Entries of the list of seen surfels: each surfel occupies one index pixel, so at most
+// min(capacity, index pixels) are seen; the same list then holds the ids to remove, plus at most
+// one sweep's worth.
+int64_t seen_list_capacity(int64_t pixels, int index_map_scale, int64_t pool_capacity) {
+  return std::min(pool_capacity, pixels * index_map_scale * index_map_scale);
+}
+
+}  // namespace
+
+std::size_t SurfelFusion::bytes_for(int width, int height, int index_map_scale, int64_t pool_capacity,
+                                    const FusionOptions& options) {
+  const int64_t pixels = static_cast<int64_t>(width) * height;
+  const int64_t seen_entries =
+      seen_list_capacity(pixels, index_map_scale, pool_capacity) + options.lifetime_sweep_per_frame;
+  // state_ (uint32 per surfel), seen_ (int32 per entry), unmatched_ (int32) and weight_ (float) per pixel.
+  return static_cast<std::size_t>(pool_capacity + seen_entries + 2 * pixels) * 4;
+}
+
 Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_map_scale, int64_t pool_capacity,
                                           const FusionOptions& options) {
   EF_RETURN_IF_ERROR(options.validate());
@@ -130,16 +150,13 @@ Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_m
   f.focal_ = 0.5f * (working.fx + working.fy);
 
   const int64_t pixels = static_cast<int64_t>(working.width) * working.height;
-  const int64_t index_pixels = pixels * index_map_scale * index_map_scale;
-  // Each surfel occupies one index pixel, so at most min(capacity, index pixels) are seen; the same
-  // list then holds the ids to remove, plus at most one sweep's worth.
-  f.seen_capacity_ = std::min(pool_capacity, index_pixels);
+  f.seen_capacity_ = seen_list_capacity(pixels, index_map_scale, pool_capacity);
   const int64_t seen_entries = f.seen_capacity_ + options.lifetime_sweep_per_frame;
   f.state_.reset(new uint32_t[static_cast<std::size_t>(pool_capacity)]());
   f.seen_.reset(new int32_t[static_cast<std::size_t>(seen_entries)]);
   f.unmatched_.reset(new int32_t[static_cast<std::size_t>(pixels)]);
   f.weight_.allocate(working.width, working.height);
-  f.bytes_ = static_cast<std::size_t>(pool_capacity + seen_entries + 2 * pixels) * 4;
+  f.bytes_ = bytes_for(working.width, working.height, index_map_scale, pool_capacity, options);
 
   // gamma: pixel distance from the principal point over that of the farthest corner.
   const float dx_max = std::max(working.cx, static_cast<float>(working.width - 1) - working.cx);

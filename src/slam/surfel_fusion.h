@@ -313,6 +313,10 @@ class SurfelFusion {
   int index_map_scale() const { return scale_; }
   // Bytes allocated by create().
   std::size_t bytes() const { return bytes_; }
+  // Bytes create() allocates for a working image of width x height, an index map of that scale and
+  // a pool of that capacity (the formula under "Memory" above).
+  static std::size_t bytes_for(int width, int height, int index_map_scale, int64_t pool_capacity,
+                               const FusionOptions& options);
 
  private:
   SurfelFusion() = default;

@@ -32,13 +32,18 @@ std::string SurfelPoolOptions::describe() const {
 
 void SurfelPool::AlignedFree::operator()(unsigned char* p) const { ::operator delete[](p, std::align_val_t(kAlign)); }
 
+std::size_t SurfelPool::bytes_for(int64_t capacity) {
+  const auto n = static_cast<std::size_t>(capacity > 0 ? capacity : 0);
+  return 8 * round_up(n * sizeof(float)) + 3 * round_up(n * sizeof(uint32_t)) + round_up(n * kLabelBytesPerSurfel);
+}
+
 Result<SurfelPool> SurfelPool::create(const SurfelPoolOptions& options) {
   if (Status s = options.validate(); !s.ok()) return s.take_error();
   const auto n = static_cast<std::size_t>(options.capacity);
   const std::size_t f = round_up(n * sizeof(float));
   const std::size_t u = round_up(n * sizeof(uint32_t));
   const std::size_t l = round_up(n * kLabelBytesPerSurfel);
-  const std::size_t total = 8 * f + 3 * u + l;
+  const std::size_t total = bytes_for(options.capacity);
   SurfelPool pool;
   pool.options_ = options;
   unsigned char* block = new (std::align_val_t(kAlign), std::nothrow) unsigned char[total];

@@ -65,6 +65,8 @@ class SurfelPool {
       8 * sizeof(float) + sizeof(uint32_t) + 2 * sizeof(int32_t) + kLabelBytesPerSurfel;  // 60
 
   static Result<SurfelPool> create(const SurfelPoolOptions& options = {});
+  // Bytes create() allocates for `capacity` surfels (every column rounded up to 64 bytes).
+  static std::size_t bytes_for(int64_t capacity);
 
   SurfelPool(SurfelPool&&) noexcept = default;
   SurfelPool& operator=(SurfelPool&&) noexcept = default;

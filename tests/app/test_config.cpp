@@ -408,6 +408,7 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   ASSERT_TRUE(slam.ok()) << to_string(slam.error());
   EXPECT_EQ(plan->bytes_of("surfel pool"), slam->pool_bytes());
   EXPECT_EQ(plan->bytes_of("surfel spatial order"), slam->spatial_order_bytes());
+  EXPECT_EQ(plan->bytes_of("model prediction"), slam->predictor().bytes());
   auto fusion = slam::SurfelFusion::create(working, so.prediction.index_map_scale, c.surfel_capacity, so.fusion);
   ASSERT_TRUE(fusion.ok());
   EXPECT_EQ(plan->bytes_of("surfel fusion scratch"), fusion->bytes());

@@ -167,6 +167,27 @@ TEST(ModelPredict, CreateRejectsBadSizesAndLevels) {
   EXPECT_FALSE(p.predict(pool, SE3(), 0, NAN).ok());
 }
 
+// bytes() (and the memory plan's bytes_for()) is what create() allocated: every level's maps, the
+// index map, the winner and colour images, plus the three rows of rays and scratch (private).
+TEST(ModelPredict, BytesAreWhatCreateAllocated) {
+  for (int scale : {1, 2, 4}) {
+    PredictionOptions o;
+    o.index_map_scale = scale;
+    const ModelPredictor p = make_predictor(small_camera(), 3, o);
+    const auto b = [](const auto& view) { return static_cast<std::size_t>(view.width) * view.height * sizeof(*view.data); };
+    std::size_t sum = 0;
+    for (int l = 0; l < p.levels(); ++l) {
+      const PredictedLevel& lv = p.level(l);
+      sum += b(lv.depth.view()) + b(lv.vertex.view()) + b(lv.normal.view()) + b(lv.intensity.view()) +
+             b(lv.grad_x.view()) + b(lv.grad_y.view());
+    }
+    sum += b(p.index_map().id.view()) + b(p.index_map().depth.view()) + b(p.surfel_ids()) + b(p.color());
+    sum += (2 * static_cast<std::size_t>(small_camera().width) + small_camera().height) * sizeof(float);
+    EXPECT_EQ(p.bytes(), sum) << "scale " << scale;
+    EXPECT_EQ(ModelPredictor::bytes_for(small_camera().width, small_camera().height, 3, o), sum) << "scale " << scale;
+  }
+}
+
 TEST(ModelPredict, EmptyPoolGivesEmptyMaps) {
   auto p = make_predictor(small_camera());
   // Before any predict() the maps are empty too (the index map says -1, not surfel 0).
