@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <string>
 
-#include <Eigen/Core>
 
 #include "core/arena.h"
 #include "core/image.h"
@@ -39,8 +38,6 @@ using std::size_t;
 // static bytes_for(...) of the class (see the report of issue 7).
 
 constexpr size_t kFrameBytesPerPixel = sizeof(Rgb8) + sizeof(float) + sizeof(uint8_t);  // colour, depth, labels
-constexpr size_t kLevelBytesPerPixel =  // depth, vertex, normal, intensity, two gradients
-    sizeof(float) + 2 * sizeof(Eigen::Vector3f) + 3 * sizeof(float);
 constexpr int kStageSamples = 4096;         // StageStats' default reservoir per stage (core/stage_stats.h)
 constexpr int kRunStages = 9;  // source, resample, preprocess, front_total, track, fuse, predict, slam_total, mapping_total
 constexpr int kLabelStages = 4;             // segment, label_fuse, label_render, crf (run_semantics)
@@ -180,21 +177,9 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   const slam::FusionOptions& fus = slam.fusion;
   const slam::TrackerOptions& trk = slam.tracker;
   const int levels = pre.levels;
-  // slam/preprocess.h (Preprocessor::bytes()): the pyramid, the cut depth, the padded bilateral
-  // input, its weights and rows: one per prepared frame (below).
-  size_t preprocessor_bytes = 0;
-  {
-    size_t& b = preprocessor_bytes;
-    for (int l = 0; l < levels; ++l) {
-      const Size2 s = level_size(w, h, l);
-      b += px(s.w, s.h) * kLevelBytesPerPixel;
-    }
-    const int r = pre.bilateral_radius_px;
-    b += px(w, h) * sizeof(float) + px(w + 2 * r, h + 2 * r) * sizeof(float) + px(2 * r + 1, 2 * r + 1) * sizeof(float) +
-         2 * static_cast<size_t>(w) * sizeof(float);
-    // Not a part of its own: `run`'s SLAM has no preprocessor (own_preprocessor = false); the
-    // prepared frames below each have one.
-  }
+  // One preprocessor per prepared frame (below); not a part of its own: `run`'s SLAM has none
+  // (own_preprocessor = false).
+  const size_t preprocessor_bytes = slam::Preprocessor::bytes_for(w, h, pre);
   {  // slam/tracker.h: row tiles (2 x 8 floats per pixel), the SO(3) level's images and rays
     const Size2 extra = level_size(w, h, levels);
     const bool extra_ok = extra.w >= kTrackerSo3MinWidth && extra.h >= kTrackerSo3MinHeight;

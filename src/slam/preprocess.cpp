@@ -70,6 +70,18 @@ std::size_t Preprocessor::bytes() const {
   return total;
 }
 
+std::size_t Preprocessor::bytes_for(int width, int height, const PreprocessOptions& options) {
+  const auto px = [](int w, int h) { return static_cast<std::size_t>(w > 0 ? w : 0) * static_cast<std::size_t>(h > 0 ? h : 0); };
+  // Per pixel of every level: depth, vertex, normal, intensity and the two gradients.
+  constexpr std::size_t kLevelBytesPerPixel = sizeof(float) + 2 * sizeof(Eigen::Vector3f) + 3 * sizeof(float);
+  std::size_t b = 0;
+  for (int l = 0, w = width, h = height; l < options.levels; ++l, w /= 2, h /= 2) b += px(w, h) * kLevelBytesPerPixel;
+  const int r = options.bilateral_radius_px;
+  // Cut depth, padded filter input, spatial weights, two rows.
+  b += (px(width, height) + px(width + 2 * r, height + 2 * r) + px(2 * r + 1, 2 * r + 1) + 2 * px(width, 1)) * sizeof(float);
+  return b;
+}
+
 Result<Preprocessor> Preprocessor::create(const Intrinsics& working, const PreprocessOptions& options) {
   EF_RETURN_IF_ERROR(options.validate());
   if (!working.valid()) return error(ErrorCode::kInvalidArgument, "preprocess: invalid working intrinsics");

@@ -115,6 +115,8 @@ class Preprocessor {
   const Intrinsics& intrinsics() const { return levels_[0].intrinsics; }
   // Bytes create() allocated: the levels' images and the filter's buffers (the memory plan).
   std::size_t bytes() const;
+  // The same for a width x height working image before creating one (levels halve, rounding down).
+  static std::size_t bytes_for(int width, int height, const PreprocessOptions& options);
 
  private:
   Preprocessor() = default;

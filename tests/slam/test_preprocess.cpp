@@ -62,6 +62,15 @@ TEST(Preprocess, PyramidSizesAndIntrinsics) {
   EXPECT_EQ(odd.level(2).depth.height(), 60);
 }
 
+// bytes_for() (the memory plan's figure) is what create() allocates, odd sizes included.
+TEST(Preprocess, BytesForIsWhatCreateAllocates) {
+  for (const auto& [w, h] : {std::pair<int, int>{320, 240}, {161, 97}, {640, 480}}) {
+    PreprocessOptions o;
+    const Preprocessor p = make(kinect_320x240().scaled_to(w, h), o);
+    EXPECT_EQ(Preprocessor::bytes_for(w, h, o), p.bytes()) << w << "x" << h;
+  }
+}
+
 TEST(Preprocess, RejectsBadOptionsAndSizes) {
   const Intrinsics K = kinect_320x240();
   PreprocessOptions o;

@@ -78,11 +78,7 @@ double ate_rmse(const RunOutput& o) {
 TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
   // 60 frames of a 1000-frame loop: the motion of a hand-held camera at 30 Hz. Under qemu-user
   // (about 1 s a frame with the rendering) 30 frames: the same checks over half the motion.
-#ifdef EF_TESTS_UNDER_EMULATOR
-  constexpr int kFrames = 30;
-#else
-  constexpr int kFrames = 60;
-#endif
+  constexpr int kFrames = test::frames_native_or_emulated(60, 30);
   const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", kFrames, {}, true);
   ASSERT_EQ(o.estimate.size(), static_cast<std::size_t>(kFrames));
   EXPECT_EQ(o.lost, 0);
@@ -94,11 +90,7 @@ TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
 // of equal rank, but not what is mapped: the same sequence with and without it tracks as well and
 // makes a map of about the same size.
 TEST(SurfelSlam, SpatialReorderingKeepsTrackingAndMap) {
-#ifdef EF_TESTS_UNDER_EMULATOR
-  constexpr int kFrames = 20;
-#else
-  constexpr int kFrames = 40;
-#endif
+  constexpr int kFrames = test::frames_native_or_emulated(40, 20);
   SurfelSlamOptions never, often;
   never.spatial_order.every_frames = 0;
   often.spatial_order.every_frames = 3;
