@@ -325,8 +325,10 @@ inline void SurfelFusion::visit_cell(const FrameContext& fc, const SurfelPool& p
   ws->gated[ws->n_gated++] = WindowScan::Gated{id, bx, by};
 }
 
-// The base block first; the margin only when the block offers no surfel to fuse into (most pixels
-// find theirs in the block, and the margin is 20 of the 36 cells of a 6x6 window).
+// The base block first; the margin only when no surfel of the block passes the gates (most pixels
+// find theirs in the block, and the margin is 12 of the 16 cells of a 4x4 window at scale 2). A
+// block whose passing surfels were all updated already leaves the pixel covered (FusionOptions::
+// search_margin_index_px says why the margin is not searched for a fresher one).
 void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool,
                                const PixelContext& px, WindowScan* ws, FusionStats& st) {
   const int iw = index.id.width(), ih = index.id.height();
@@ -374,7 +376,7 @@ void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, co
     }
   }
   const int margin = options_.search_margin_index_px;
-  if (margin == 0 || (ws->best >= 0 && !ws->best_updated)) return;
+  if (margin == 0 || ws->best >= 0) return;
   const int x0 = bx0 - margin, y0 = by0 - margin, x1 = bx1 + margin, y1 = by1 + margin;
   for (int by = std::max(y0, 0); by < std::min(y1, ih); ++by) {
     const int32_t* ids = &index.id(0, by);
