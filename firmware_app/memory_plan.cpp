@@ -41,9 +41,7 @@ constexpr size_t kFrameBytesPerPixel = sizeof(Rgb8) + sizeof(float) + sizeof(uin
 constexpr int kStageSamples = 4096;         // StageStats' default reservoir per stage (core/stage_stats.h)
 constexpr int kRunStages = 9;  // source, resample, preprocess, front_total, track, fuse, predict, slam_total, mapping_total
 constexpr int kLabelStages = 4;             // segment, label_fuse, label_render, crf (run_semantics)
-constexpr int kTrackerTilePixels = 2048;    // Tracker's row tile (from the .cpp: slam/tracker.cpp)
 constexpr int kLabelFusionIndexScale = 4;   // LabelFusion sizes its pair list for the largest index scale
-constexpr int kTrackerSo3MinWidth = 16, kTrackerSo3MinHeight = 12;  // (from the .cpp: slam/tracker.cpp)
 
 size_t round64(size_t n) { return (n + 63) / 64 * 64; }
 size_t px(int w, int h) { return static_cast<size_t>(w) * static_cast<size_t>(h); }
@@ -52,13 +50,6 @@ std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_s
 struct Size2 {
   int w, h;
 };
-Size2 level_size(int w, int h, int level) {
-  for (int i = 0; i < level; ++i) {
-    w /= 2;
-    h /= 2;
-  }
-  return {w, h};
-}
 
 // The source's frame size from its URI (size=WxH), else 640x480; `note` says which. A URI that does
 // not parse is left to open_source() to report (run exits with its error, as before the plan).
@@ -180,23 +171,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   // One preprocessor per prepared frame (below); not a part of its own: `run`'s SLAM has none
   // (own_preprocessor = false).
   const size_t preprocessor_bytes = slam::Preprocessor::bytes_for(w, h, pre);
-  {  // slam/tracker.h: row tiles (2 x 8 floats per pixel), the SO(3) level's images and rays
-    const Size2 extra = level_size(w, h, levels);
-    const bool extra_ok = extra.w >= kTrackerSo3MinWidth && extra.h >= kTrackerSo3MinHeight;
-    const int so3_level = trk.so3_level >= 0 ? trk.so3_level : extra_ok ? levels : levels - 1;
-    size_t tile = 0;
-    for (int l = 0; l <= levels; ++l) {
-      if (l == levels && so3_level != levels) continue;
-      const Size2 s = level_size(w, h, l);
-      const int rows = s.w >= kTrackerTilePixels ? 1 : kTrackerTilePixels / std::max(s.w, 1);
-      tile = std::max(tile, static_cast<size_t>(std::min(rows, s.h)) * static_cast<size_t>(s.w));
-    }
-    size_t b = 2 * 8 * tile * sizeof(float);
-    if (so3_level == levels) b += 4 * px(extra.w, extra.h) * sizeof(float);
-    const Size2 ks = level_size(w, h, so3_level);
-    b += 3 * px(ks.w, ks.h) * sizeof(float);
-    add("slam tracker", b, "row tiles, SO(3) level " + std::to_string(so3_level) + " images and rays");
-  }
+  add("slam tracker", slam::Tracker::bytes_for(w, h, levels, trk), "row tiles, the SO(3) level's images and rays");
   add("surfel pool", slam::SurfelPool::bytes_for(config.surfel_capacity),
       std::to_string(cap) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) + " bytes (label store " +
           std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");

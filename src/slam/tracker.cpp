@@ -186,6 +186,57 @@ std::string TrackerOptions::describe() const {
   return s.str();
 }
 
+namespace {
+
+// The SO(3) level needs at least this size (pixels) to be the tracker's own extra halving.
+constexpr int kSo3MinWidth = 16, kSo3MinHeight = 12;
+
+// What create() allocates for a pyramid with this level 0, written once for create() and bytes_for().
+struct TrackerLayout {
+  Intrinsics extra;       // the halving below the coarsest level
+  bool extra_ok = false;  // large enough for the SO(3) alignment
+  int so3_level = 0;      // options.so3_level resolved (levels = the extra level)
+  std::size_t tile_capacity = 0;  // pixels per row tile: the largest over every level linearised
+
+};
+
+TrackerLayout tracker_layout(const Intrinsics& level0, int levels, const TrackerOptions& options) {
+  TrackerLayout t;
+  t.extra = level0.pyramid_level(levels);
+  t.extra_ok = t.extra.width >= kSo3MinWidth && t.extra.height >= kSo3MinHeight;
+  t.so3_level = options.so3_level >= 0 ? options.so3_level : t.extra_ok ? levels : levels - 1;
+  // Every level linearise() runs on: the pyramid's and the SO(3) one.
+  for (int l = 0; l <= levels; ++l)
+    if (l < levels || t.so3_level == levels) t.tile_capacity = std::max(t.tile_capacity, tile_pixels(level0.pyramid_level(l)));
+  return t;
+}
+
+// Bytes of the allocations for a layout: the tile (2 x 8 floats per pixel), the four images of the
+// extra SO(3) level (when used) and the rays (3 floats per pixel of the SO(3) level).
+std::size_t tracker_bytes(const TrackerLayout& t, const Intrinsics& level0, int levels) {
+  const Intrinsics ks = level0.pyramid_level(t.so3_level);
+  return (2 * kernels::kNeComponents * t.tile_capacity + (t.so3_level == levels ? 4 * static_cast<std::size_t>(t.extra.width) * t.extra.height : 0) +
+          3 * static_cast<std::size_t>(ks.width) * ks.height) *
+         sizeof(float);
+}
+
+}  // namespace
+
+std::size_t Tracker::bytes_for(int width, int height, int levels, const TrackerOptions& options) {
+  // Only the sizes matter here: pyramid_level() halves width and height whatever the focal lengths.
+  const Intrinsics level0{1.0f, 1.0f, 0.0f, 0.0f, width, height};
+  return tracker_bytes(tracker_layout(level0, levels, options), level0, levels);
+}
+
+std::size_t Tracker::bytes() const {
+  // Counted from what this tracker holds, independently of the layout above.
+  const Intrinsics ks = level0_.pyramid_level(so3_level_);
+  std::size_t floats = 2 * kernels::kNeComponents * tile_capacity_ + 3 * static_cast<std::size_t>(ks.width) * ks.height;
+  for (const Image<float>* im : {&so3_ref_intensity_, &so3_ref_grad_x_, &so3_ref_grad_y_, &so3_cur_intensity_})
+    floats += static_cast<std::size_t>(im->width()) * im->height();
+  return floats * sizeof(float);
+}
+
 Result<Tracker> Tracker::create(const Intrinsics& level0, int levels, const TrackerOptions& options) {
   EF_RETURN_IF_ERROR(options.validate());
   if (!level0.valid()) return error(ErrorCode::kInvalidArgument, "Tracker: invalid intrinsics");
@@ -196,26 +247,23 @@ Result<Tracker> Tracker::create(const Intrinsics& level0, int levels, const Trac
     return error(ErrorCode::kInvalidArgument, "Tracker: coarsest level smaller than 8x8");
   if (options.so3_level > levels)
     return error(ErrorCode::kInvalidArgument, "Tracker: so3_level beyond the pyramid's levels + 1");
-  const Intrinsics extra = level0.pyramid_level(levels);
-  const bool extra_ok = extra.width >= 16 && extra.height >= 12;
-  if (options.so3_level == levels && !extra_ok)
-    return error(ErrorCode::kInvalidArgument,
-                 "Tracker: so3_level " + std::to_string(levels) + " would be smaller than 16x12");
+  const TrackerLayout layout = tracker_layout(level0, levels, options);
+  if (options.so3_level == levels && !layout.extra_ok)
+    return error(ErrorCode::kInvalidArgument, "Tracker: so3_level " + std::to_string(levels) + " would be smaller than " +
+                                                  std::to_string(kSo3MinWidth) + "x" + std::to_string(kSo3MinHeight));
   Tracker t;
   t.options_ = options;
   t.level0_ = level0;
   t.levels_ = levels;
-  t.so3_level_ = options.so3_level >= 0 ? options.so3_level : extra_ok ? levels : levels - 1;
+  t.so3_level_ = layout.so3_level;
   if (t.so3_level_ == levels) {
+    const Intrinsics& extra = layout.extra;
     t.so3_ref_intensity_.allocate(extra.width, extra.height);
     t.so3_ref_grad_x_.allocate(extra.width, extra.height);
     t.so3_ref_grad_y_.allocate(extra.width, extra.height);
     t.so3_cur_intensity_.allocate(extra.width, extra.height);
   }
-  // Every level linearise() runs on: the pyramid's and the SO(3) one.
-  for (int l = 0; l <= levels; ++l)
-    if (l < levels || t.so3_level_ == levels)
-      t.tile_capacity_ = std::max(t.tile_capacity_, tile_pixels(level0.pyramid_level(l)));
+  t.tile_capacity_ = layout.tile_capacity;
   t.tile_.reset(new float[2 * kernels::kNeComponents * t.tile_capacity_]());
   // Rays K^-1 (x, y, 1) of the SO(3) level: the "vertices" of the rotation-only alignment.
   const Intrinsics ks = level0.pyramid_level(t.so3_level_);

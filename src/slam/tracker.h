@@ -239,6 +239,10 @@ class Tracker {
   // level0.height (coarser levels are the halvings of Intrinsics::pyramid_level). Errors: invalid
   // options or size.
   static Result<Tracker> create(const Intrinsics& level0, int levels, const TrackerOptions& options = {});
+  // Bytes create() allocates for a level 0 of width x height pixels, `levels` levels and these
+  // options (the memory plan's figure); bytes() of a created tracker, from what it holds.
+  static std::size_t bytes_for(int width, int height, int levels, const TrackerOptions& options);
+  std::size_t bytes() const;
 
   // Estimates T_ref_cur starting from `T_ref_cur_guess` (identity for frame-to-frame with no motion
   // model). Both pyramids must have at least levels() levels of the sizes given at create()

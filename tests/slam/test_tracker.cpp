@@ -162,6 +162,25 @@ TEST(Tracker, OptionsValidateAndDescribe) {
   EXPECT_TRUE(Tracker::create(Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(96, 72), 3, o).ok());
 }
 
+TEST(Tracker, BytesForIsWhatCreateAllocates) {
+  const Intrinsics base{585, 585, 320, 240, 640, 480};
+  // 4096 wide: a tile of one image row; 96x72: the extra level (12x9) is too small, so the default
+  // SO(3) level falls back to the coarsest.
+  for (const auto& [w, h] : {std::pair<int, int>{320, 240}, {96, 72}, {640, 480}, {4096, 64}}) {
+    for (int so3_level : {-1, 0, 2, 3}) {
+      TrackerOptions o;
+      o.so3_level = so3_level;
+      auto t = Tracker::create(base.scaled_to(w, h), 3, o);
+      if (!t.ok()) continue;  // so3_level 3 at 96x72 (asserted in OptionsValidateAndDescribe)
+      EXPECT_EQ(Tracker::bytes_for(w, h, 3, o), t.value().bytes()) << w << "x" << h << " so3_level " << so3_level;
+    }
+  }
+  // 320x240 by default: the largest tile of whole rows of at most 2048 pixels is 25 rows of the
+  // 80-pixel level 2 (2000 pixels; level 0 has 6 x 320 = 1920), x 2 x 8 floats; then the 40x30 extra
+  // level's four images and its rays (3 floats per pixel).
+  EXPECT_EQ(Tracker::bytes_for(320, 240, 3, {}), (2000 * 16 + 1200 * 4 + 1200 * 3) * sizeof(float));
+}
+
 TEST(Tracker, RejectsMismatchedPyramids) {
   const Intrinsics K = Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(320, 240);
   const Intrinsics K2 = Intrinsics{585, 585, 320, 240, 640, 480}.scaled_to(160, 120);
