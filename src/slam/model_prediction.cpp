@@ -2,6 +2,7 @@
 #include "slam/model_prediction.h"
 
 #include "core/stopwatch.h"
+#include "slam/depth_pyramid.h"
 #include "slam/preprocess.h"
 
 #include "kernels/splat_disc.h"
@@ -203,7 +204,7 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
   timings_.resolve_ms = lap_ms(t);
   for (int l = 0; l < levels_; ++l) {
     if (l > 0) {
-      downsample_depth(l);
+      downsample_depth(level_[l - 1].depth, level_[l].depth, options_.pyramid_depth_threshold_m);
       vertex_normal(l);
       downsample_intensity(l);
     }
@@ -514,41 +515,6 @@ constexpr float kTap[4] = {1.0f, 3.0f, 3.0f, 1.0f};  // binomial weights of the 
 // for a border pixel (taps outside the image are skipped); callers use the first for every pixel but
 // a one-pixel frame. Validity is depth > 0 throughout (vertex z = depth).
 
-// Coarse depth at (x, y) from the finer depth map (see downsample_depth).
-template <bool kInterior>
-float coarse_depth_at(const Image<float>& fine, int x, int y, float thr) {
-  const int fw = fine.width(), fh = fine.height();
-  const float* r0 = fine.data() + static_cast<std::size_t>(2 * y) * fw + 2 * x;
-  const float block[4] = {r0[0], r0[1], r0[fw], r0[fw + 1]};
-  float nearest = kInf;
-  for (float d : block) nearest = std::min(nearest, d > 0.0f ? d : kInf);
-  if (nearest == kInf) return 0.0f;
-  float ref_sum = 0.0f, ref_n = 0.0f;
-  for (float d : block) {
-    const bool near_surface = (d > 0.0f) & (d <= nearest + thr);
-    ref_sum += near_surface ? d : 0.0f;
-    ref_n += near_surface ? 1.0f : 0.0f;
-  }
-  const float ref = ref_sum / ref_n;
-  float sum = 0.0f, weight = 0.0f;
-  for (int j = 0; j < 4; ++j) {
-    const int yy = 2 * y - 1 + j;
-    if (!kInterior && (yy < 0 || yy >= fh)) continue;
-    const float* row = fine.data() + static_cast<std::size_t>(yy) * fw;
-    for (int i = 0; i < 4; ++i) {
-      const int xx = 2 * x - 1 + i;
-      if (!kInterior && (xx < 0 || xx >= fw)) continue;
-      const float d = row[xx];
-      const bool take = (d > 0.0f) & (std::fabs(d - ref) <= thr);
-      const float wgt = kTap[i] * kTap[j];
-      sum += take ? wgt * d : 0.0f;
-      weight += take ? wgt : 0.0f;
-    }
-  }
-  // The block's near-surface depths lie within thr of their mean, so weight > 0 but for rounding.
-  return weight > 0.0f ? sum / weight : ref;
-}
-
 // Coarse intensity at (x, y): the binomial window over finer pixels with depth (see
 // downsample_intensity); 0 when none.
 template <bool kInterior>
@@ -644,37 +610,7 @@ void fill_row(const float* __restrict iu, const float* __restrict im, const floa
   }
 }
 
-// Calls f(x, y, interior) for every pixel of a w x h image, `interior` true where the pixel is at
-// least one pixel from every border (where the 3x3 and the 4x4 windows of the finer level lie inside).
-template <class F>
-void for_each_pixel(int w, int h, F&& f) {
-  for (int y = 0; y < h; ++y) {
-    if (y == 0 || y == h - 1) {
-      for (int x = 0; x < w; ++x) f(x, y, false);
-      continue;
-    }
-    f(0, y, false);
-    for (int x = 1; x < w - 1; ++x) f(x, y, true);
-    f(w - 1, y, false);
-  }
-}
-
 }  // namespace
-
-// Depth of level l from level l-1 (metres, 0 = none). Coarse pixel (x, y) covers finer pixels 2x, 2x+1
-// and 2y, 2y+1 (Intrinsics::pyramid_level); its centre is at finer coordinate 2x + 0.5, where the
-// 4x4 window 2x-1 .. 2x+2 with weights [1 3 3 1] x [1 3 3 1] is centred. The near surface of the
-// central 2x2 block (its finer depths within the threshold of the block's nearest) gives a reference
-// depth, their mean; window depths beyond the threshold from it are left out, so an edge pixel takes
-// one surface. A block without any predicted depth gives none (holes are not filled).
-void ModelPredictor::downsample_depth(int l) {
-  const Image<float>& fine = level_[l - 1].depth;
-  Image<float>& coarse = level_[l].depth;
-  const float thr = options_.pyramid_depth_threshold_m;
-  for_each_pixel(coarse.width(), coarse.height(), [&](int x, int y, bool interior) {
-    coarse(x, y) = interior ? coarse_depth_at<true>(fine, x, y, thr) : coarse_depth_at<false>(fine, x, y, thr);
-  });
-}
 
 // Vertex and normal of level l from its depth. Vertex: the depth back-projected on the pixel's ray.
 // Normal: (V(x, y+1) - V(x, y-1)) x (V(x+1, y) - V(x-1, y)), normalised and turned toward the camera;

@@ -200,7 +200,6 @@ class ModelPredictor {
   void render(const SurfelPool& pool, const Pose& pose);
   void splat(const SurfelPool& pool, const Pose& pose, int64_t id, float xc, float yc, float zc);
   void resolve(const SurfelPool& pool, const Pose& pose);
-  void downsample_depth(int l);
   void vertex_normal(int l);
   void downsample_intensity(int l);
   void gradients(int l);

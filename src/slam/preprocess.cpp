@@ -2,6 +2,7 @@
 #include "slam/preprocess.h"
 
 #include "core/stopwatch.h"
+#include "slam/depth_pyramid.h"
 
 #include <algorithm>
 #include <chrono>
@@ -135,7 +136,8 @@ Status Preprocessor::process(ImageView<const float> depth, ImageView<const Rgb8>
   cut_off_and_pad(depth);
   bilateral();
   timings_.bilateral_ms = lap_ms(t);
-  for (int l = 1; l < options_.levels; ++l) downsample_depth(l);
+  for (int l = 1; l < options_.levels; ++l)
+    downsample_depth(levels_[l - 1].depth, levels_[l].depth, options_.pyramid_depth_threshold_m);
   timings_.depth_pyramid_ms = lap_ms(t);
   for (int l = 0; l < options_.levels; ++l) vertex_normal(l);
   timings_.vertex_normal_ms = lap_ms(t);
@@ -201,65 +203,6 @@ void Preprocessor::bilateral() {
     for (int x = 0; x < w; ++x) {
       const float mean = swd[x] / sw[x];
       o[x] = raw[x] > 0.0f ? mean : 0.0f;
-    }
-  }
-}
-
-// Level l from level l-1. Pixel (x, y) of level l covers pixels 2x, 2x+1 (and 2y, 2y+1) of level l-1,
-// its centre at 2x + 0.5 (the convention of Intrinsics::pyramid_level). The 4x4 window 2x-1 .. 2x+2
-// with weights [1 3 3 1] is centred there. Depths further than the threshold from the centre depth
-// are left out, as in KinectFusion's pyramid, so a coarse pixel on an edge takes one surface instead
-// of a depth between; the centre depth is that of the near surface within the central 2x2 block.
-void Preprocessor::downsample_depth(int l) {
-  const Image<float>& src = levels_[l - 1].depth;
-  Image<float>& dst = levels_[l].depth;
-  const int sw = src.width(), sh = src.height();
-  const float thr = options_.pyramid_depth_threshold_m;
-  static constexpr float kBinomial[4] = {1.0f, 3.0f, 3.0f, 1.0f};
-  for (int y = 0; y < dst.height(); ++y) {
-    for (int x = 0; x < dst.width(); ++x) {
-      float ref = 0.0f;
-      for (int j = 0; j < 2; ++j)
-        for (int i = 0; i < 2; ++i) {
-          const float d = src(2 * x + i, 2 * y + j);
-          if (d > 0.0f && (ref == 0.0f || d < ref)) ref = d;
-        }
-      if (ref == 0.0f) {
-        dst(x, y) = 0.0f;
-        continue;
-      }
-      // The centre depth: the mean of the 2x2 block's depths on the near surface. Testing the window
-      // against it (not against the nearest depth) keeps the selection symmetric about the centre, so
-      // a steep slope is not biased toward its near side.
-      float centre = 0.0f;
-      int n_centre = 0;
-      for (int j = 0; j < 2; ++j)
-        for (int i = 0; i < 2; ++i) {
-          const float d = src(2 * x + i, 2 * y + j);
-          if (d > 0.0f && d - ref <= thr) {
-            centre += d;
-            ++n_centre;
-          }
-        }
-      centre /= static_cast<float>(n_centre);
-      float sum = 0.0f, weight = 0.0f;
-      for (int j = 0; j < 4; ++j) {
-        const int yy = 2 * y - 1 + j;
-        if (yy < 0 || yy >= sh) continue;
-        for (int i = 0; i < 4; ++i) {
-          const int xx = 2 * x - 1 + i;
-          if (xx < 0 || xx >= sw) continue;
-          const float d = src(xx, yy);
-          if (d > 0.0f && std::fabs(d - centre) <= thr) {
-            const float b = kBinomial[i] * kBinomial[j];
-            sum += b * d;
-            weight += b;
-          }
-        }
-      }
-      // `centre` lies in [ref, ref + thr], so `ref` itself passes the test and weight > 0 (the guard
-      // covers a centre rounded one ulp beyond ref + thr).
-      dst(x, y) = weight > 0.0f ? sum / weight : centre;
     }
   }
 }

@@ -48,8 +48,9 @@ struct PreprocessOptions {
   // gets a weight below 1e-10, so depths are not averaged across step edges.
   float bilateral_sigma_depth_m = 0.03f;
   // Depth pyramid: a coarse pixel averages the valid depths of its 4x4 neighbourhood (binomial
-  // weights, centred on its 2x2 block) that lie within this distance (metres) of the nearest valid
-  // depth of that 2x2 block; no valid depth in the block -> invalid. KinectFusion: 3 sigma_depth.
+  // weights, centred on its 2x2 block) that lie within this distance (metres) of the mean depth of
+  // the block's near surface; no valid depth in the block -> invalid (slam/depth_pyramid.h, the rule
+  // the predicted model's pyramid shares). KinectFusion: 3 sigma_depth.
   float pyramid_depth_threshold_m = 0.09f;
   // Normals: a neighbour is across a depth discontinuity (normal invalid) when its depth differs from
   // the centre's by more than what a surface seen at this grazing angle (degrees between surface and
@@ -122,7 +123,6 @@ class Preprocessor {
   Preprocessor() = default;
   void cut_off_and_pad(ImageView<const float> depth);
   void bilateral();
-  void downsample_depth(int l);
   void vertex_normal(int l);
   void grey(ImageView<const Rgb8> color);
   void downsample_intensity(int l);
