@@ -50,7 +50,7 @@ constexpr OptionDoc kOptions[] = {
     {"mapping.depth_cutoff_m", "depth_cutoff_m", "metres, > 0; depths beyond are ignored; default 8"},
     {"mapping.index_map_scale", "index_map_scale",
      "index map cells per working pixel along each axis, 1..4; 4 = ElasticFusion's, slower for the same "
-     "accuracy at 320x240 (docs/results.md); default 2"},
+     "accuracy at 320x240 (docs/results.md); default 1"},
     {"labels.enabled", "labels", "CNN segmentation + Bayesian label fusion; false = geometry only; default true"},
     {"labels.model", "model", ".efm segmentation model; default the shipped models/edgefusion-seg.efm"},
     {"labels.every", "label_every", "frames between CNN label updates, 1..1000000; default 10 (the paper's)"},

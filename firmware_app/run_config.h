@@ -43,7 +43,7 @@ struct RunConfig {
   double icp_weight = 10.0;             // tracking: relative weight of the ICP term (>= 0)
   double rgb_weight = 0.25;             // tracking: relative weight of the photometric term (>= 0)
   float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres (> 0)
-  int index_map_scale = 2;              // index map cells per working pixel along each axis (1..4)
+  int index_map_scale = 1;              // index map cells per working pixel along each axis (1..4)
   // Semantics (SemanticFusion), section `labels`: the CNN every N-th frame, Bayesian label fusion
   // into the surfels, rendered label images.
   bool labels = true;                   // segment and fuse labels; false = geometry only

@@ -24,19 +24,19 @@ inline std::filesystem::path shared_dataset(const std::string& name) {
   return std::filesystem::exists(root / name, ec) ? root / name : std::filesystem::path();
 }
 
-// A fresh empty folder for one test's files, under the system temporary directory.
-// Frames of a sequence test: `native`, or `emulated` when the tests run under qemu-user (cross
-// builds define EF_TESTS_UNDER_EMULATOR; 20-60x slower than native).
-constexpr int frames_native_or_emulated(int native, int emulated) {
+// True when the tests run under qemu-user (cross builds define EF_TESTS_UNDER_EMULATOR; 20-60x
+// slower than native): the one place the macro is read, so tests branch on a constant.
+inline constexpr bool kUnderEmulator =
 #ifdef EF_TESTS_UNDER_EMULATOR
-  (void)native;
-  return emulated;
+    true;
 #else
-  (void)emulated;
-  return native;
+    false;
 #endif
-}
 
+// Frames of a sequence test: `native`, or `emulated` under qemu-user.
+constexpr int frames_native_or_emulated(int native, int emulated) { return kUnderEmulator ? emulated : native; }
+
+// A fresh empty folder for one test's files, under the system temporary directory.
 inline std::filesystem::path scratch_dir(const std::string& test_name) {
   auto dir = std::filesystem::temp_directory_path() / ("edgefusion-test-" + test_name + "-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);

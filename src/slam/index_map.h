@@ -24,7 +24,7 @@
 namespace ef::slam {
 
 struct IndexMap {
-  int scale = 2;             // index pixels per working pixel along each axis (1..4)
+  int scale = 1;             // index pixels per working pixel along each axis (1..4)
   Intrinsics intrinsics;     // of the index grid
   SE3 T_world_cam;           // the camera pose the map was rendered at (camera to world)
   Image<int32_t> id;         // surfel id, -1 = none

@@ -45,7 +45,7 @@
 // 10.4 ms with the kernel (AVX2); the transform and index map are ~1.9 ms of that, resolve 1.3 ms,
 // the pyramid 1.6 ms.
 //
-// Memory: create() allocates everything (at 320x240, scale 2, 3 levels: 2.5 MB of index map, 3.6 MB
+// Memory: create() allocates everything (at 320x240, scale 1, 3 levels: 0.6 MB of index map, 3.6 MB
 // of level-0 buffers and maps, 1.0 MB for levels 1-2); predict() performs no heap allocation.
 // Threads: one ModelPredictor per thread; predict() and the accessors must not run concurrently.
 #pragma once
@@ -68,13 +68,15 @@ namespace ef::slam {
 struct PredictionOptions {
   // Index map resolution: index pixels per working pixel along each axis (1..4); fusion must use the
   // same scale. ElasticFusion uses 4 at 640x480, up to 16 candidate surfels per input pixel. Default
-  // 2 here: at the 320x240 working resolution that is 640x480 cells, and measured at 320x240 on one
-  // x86-64 core (bench/slam_stages, all 1000 7-Scenes frames, the pool in spatial order) 4x gives
-  // fuse 11.95 + predict 10.57 ms median, ATE 2.77 cm, 467k surfels at the end; 2x gives 10.92 +
-  // 8.05 ms, ATE 2.74 cm, 391k surfels (fewer near-duplicates get a cell of their own). Synthetic
-  // 1000-frame loop: ATE 5.5 mm at 2x (5.3 mm at 4x); semantic Table I: SF class average +1.6
-  // over the CNN at 2x, +1.7 at 4x (docs/results.md). `run`: mapping.index_map_scale.
-  int index_map_scale = 2;
+  // 1 here: at the 320x240 working resolution a finer map buys no accuracy, only time. Measured at
+  // 320x240 on one x86-64 core (bench/slam_stages, all 1000 7-Scenes frames, the pool in spatial
+  // order): 4x gave fuse 11.95 + predict 10.57 ms median, ATE 2.77 cm, 467k surfels at the end, and
+  // 2x 10.92 + 8.05 ms, ATE 2.74 cm, 391k surfels (one run); later, side by side with today's
+  // fusion rules, 2x 11.26 + 9.65 ms, ATE 2.77 cm, 383k surfels against 1x 9.30 + 9.02 ms, ATE
+  // 2.76 cm, 428k surfels. Synthetic 1000-frame loop: ATE 5.4 mm at 2x, 5.6 mm at 1x (5.3 mm at 4x
+  // before); semantic Table I class average: SF +1.7 over the CNN at both 2x and 1x, SF-CRF +1.8 /
+  // +1.9 (docs/results.md). `run`: mapping.index_map_scale.
+  int index_map_scale = 1;
   // Surfels with confidence >= this (dimensionless accumulated weight) are stable and drawn into the
   // tracking maps (ElasticFusion: 10). predict(..., tracking_min_confidence) overrides it per call
   // (e.g. while the map is young and no surfel can have reached it yet).

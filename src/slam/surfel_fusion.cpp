@@ -326,7 +326,7 @@ inline void SurfelFusion::visit_cell(const FrameContext& fc, const SurfelPool& p
 }
 
 // The base block first; the margin only when no surfel of the block passes the gates (most pixels
-// find theirs in the block, and the margin is 12 of the 16 cells of a 4x4 window at scale 2). A
+// find theirs in the block, and the margin is 8 of the 9 cells of a 3x3 window at scale 1). A
 // block whose passing surfels were all updated already leaves the pixel covered (FusionOptions::
 // search_margin_index_px says why the margin is not searched for a fresher one).
 void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool,

@@ -21,9 +21,7 @@ namespace {
 // turned off: the shipped network's forward pass is far slower there than the mapping itself, and
 // the semantic path has its own tests (test_cli_semantic.cpp) with a tiny network.
 std::vector<std::string> run_args(std::vector<std::string> args) {
-#ifdef EF_TESTS_UNDER_EMULATOR
-  args.push_back("--no-labels");
-#endif
+  if (test::kUnderEmulator) args.push_back("--no-labels");
   return args;
 }
 

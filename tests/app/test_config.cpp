@@ -366,23 +366,23 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
                            "map.ply class columns"})
     EXPECT_GT(plan->bytes_of(part), 0u) << part << " missing in\n" << plan->table();
   EXPECT_EQ(plan->bytes_of("dense crf"), 0u);  // off by default
-  // docs/architecture.md, memory budget: 60 bytes per surfel; 640x480 x 8 source frame; the 2x index
-  // map 2.5 MB of the 7.0 MB of prediction at 320x240; fusion scratch 5.9 MB; spatial order 9.0 MB.
+  // docs/architecture.md, memory budget: 60 bytes per surfel; 640x480 x 8 source frame; the 1x index
+  // map 0.6 MB of the 5.2 MB of prediction at 320x240; fusion scratch 5.0 MB; spatial order 9.0 MB.
   EXPECT_NEAR(double(plan->bytes_of("surfel pool")), 60e6, 1e3);
   EXPECT_EQ(plan->bytes_of("source frame"), 640u * 480 * 8);
-  EXPECT_NEAR(double(plan->bytes_of("model prediction")), 7.0e6, 0.1e6);
-  EXPECT_NEAR(double(plan->bytes_of("surfel fusion scratch")), 5.9e6, 0.1e6);
+  EXPECT_NEAR(double(plan->bytes_of("model prediction")), 5.2e6, 0.1e6);
+  EXPECT_NEAR(double(plan->bytes_of("surfel fusion scratch")), 5.0e6, 0.1e6);
   EXPECT_NEAR(double(plan->bytes_of("surfel spatial order")), 9.0e6, 0.1e6);
   EXPECT_NEAR(double(plan->bytes_of("map.ply class columns")), 5e6, 1);
   EXPECT_TRUE(plan->within_budget()) << plan->table();
-  // mapping.index_map_scale 4 (ElasticFusion's): the index map is four times larger (1280x960 cells
-  // instead of 640x480), and so is fusion's list of seen surfels.
+  // mapping.index_map_scale 4 (ElasticFusion's): the index map is sixteen times larger (1280x960 cells
+  // instead of 320x240), and so is fusion's list of seen surfels.
   {
     RunConfig fine = c;
     fine.index_map_scale = 4;
     auto p4 = plan_memory(fine);
     ASSERT_TRUE(p4.ok()) << to_string(p4.error());
-    EXPECT_EQ(p4->bytes_of("model prediction") - plan->bytes_of("model prediction"), (1280u * 960 - 640u * 480) * 8);
+    EXPECT_EQ(p4->bytes_of("model prediction") - plan->bytes_of("model prediction"), (1280u * 960 - 320u * 240) * 8);
     EXPECT_NEAR(double(p4->bytes_of("surfel fusion scratch")), 8.7e6, 0.1e6);
   }
 

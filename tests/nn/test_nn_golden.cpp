@@ -27,6 +27,7 @@
 #include "kernels/variants.h"
 #include "nn/executor.h"
 #include "nn/model_format.h"
+#include "test_support.h"
 
 namespace ef::nn {
 namespace {
@@ -102,15 +103,10 @@ uint32_t hex32(const std::string& s) { return static_cast<uint32_t>(std::stoul(s
   return ::testing::AssertionSuccess();
 }
 
-// Under qemu-user (EF_TESTS_UNDER_EMULATOR) a whole 120x160 network costs minutes per run on the
+// Under qemu-user (test::kUnderEmulator) a whole 120x160 network costs minutes per run on the
 // scalar path and far more with a spinning thread pool: there only the SIMD caps run, once each, on
 // one thread. The scalar and threaded runs are the same C++ on every architecture and run natively.
-constexpr bool kUnderEmulator =
-#ifdef EF_TESTS_UNDER_EMULATOR
-    true;
-#else
-    false;
-#endif
+using test::kUnderEmulator;
 
 std::vector<ExecutorOptions> variant_options(ThreadPool* pool) {
   std::vector<ExecutorOptions> out;

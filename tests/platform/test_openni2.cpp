@@ -32,13 +32,11 @@ std::unique_ptr<CameraSource> open_dummy(const std::string& query, std::string& 
   auto uri = parse_source_uri("openni2:Dummy" + query);
   EXPECT_TRUE(uri.ok());
   auto cam = open_openni2_camera(*uri);
-#ifdef EF_TESTS_UNDER_EMULATOR
   // Under qemu-user the driver is the arm64 one; if OpenNI2 cannot load it there, say so.
-  if (!cam.ok()) {
+  if (test::kUnderEmulator && !cam.ok()) {
     skip = "OpenNI2's Dummy driver does not load under the emulator: " + cam.error().message;
     return nullptr;
   }
-#endif
   EXPECT_TRUE(cam.ok()) << cam.error().message;
   if (!cam.ok()) return nullptr;
   return std::move(cam).value();
@@ -187,9 +185,8 @@ TEST(OpenNi2, Errors) {
   // A mode the device does not have.
   auto size = open_source("openni2:Dummy?size=1280x1024");
   if (size.ok()) GTEST_SKIP() << "the Dummy driver here has 1280x1024 (not Debian's)";
-#ifdef EF_TESTS_UNDER_EMULATOR
-  if (size.error().code == ErrorCode::kNotFound) GTEST_SKIP() << "Dummy driver not loadable under the emulator";
-#endif
+  if (test::kUnderEmulator && size.error().code == ErrorCode::kNotFound)
+    GTEST_SKIP() << "Dummy driver not loadable under the emulator";
   EXPECT_EQ(size.error().code, ErrorCode::kUnsupported) << size.error().message;
   EXPECT_NE(size.error().message.find("320x240"), std::string::npos) << size.error().message;
 }
