@@ -11,8 +11,10 @@
 // nearest keeps the selection symmetric, so a steep slope is not biased toward its near side. A
 // block without any depth gives none (0): holes are not filled.
 //
-// Depths in metres, 0 = none. Branch-free for the data (selects); about 1 ns per coarse pixel on one
-// x86-64 core. No allocation; any sizes with coarse <= fine / 2 per axis.
+// Depths in metres, 0 = none. Branch-free for the data (selects), one pixel at a time: a version over
+// runs of 64 pixels of a row, in loops the compiler vectorises and bit-identical, was measured no
+// faster (7-Scenes at 320x240, both pyramids: 1.85 against 2.03 ms of the predictor's pyramid stage,
+// side by side). No allocation; any sizes with coarse <= fine / 2 per axis.
 #pragma once
 
 #include "core/image.h"
