@@ -197,7 +197,6 @@ struct TrackerLayout {
   bool extra_ok = false;  // large enough for the SO(3) alignment
   int so3_level = 0;      // options.so3_level resolved (levels = the extra level)
   std::size_t tile_capacity = 0;  // pixels per row tile: the largest over every level linearised
-
 };
 
 TrackerLayout tracker_layout(const Intrinsics& level0, int levels, const TrackerOptions& options) {
@@ -207,7 +206,8 @@ TrackerLayout tracker_layout(const Intrinsics& level0, int levels, const Tracker
   t.so3_level = options.so3_level >= 0 ? options.so3_level : t.extra_ok ? levels : levels - 1;
   // Every level linearise() runs on: the pyramid's and the SO(3) one.
   for (int l = 0; l <= levels; ++l)
-    if (l < levels || t.so3_level == levels) t.tile_capacity = std::max(t.tile_capacity, tile_pixels(level0.pyramid_level(l)));
+    if (l < levels || t.so3_level == levels)
+      t.tile_capacity = std::max(t.tile_capacity, tile_pixels(level0.pyramid_level(l)));
   return t;
 }
 
@@ -215,9 +215,10 @@ TrackerLayout tracker_layout(const Intrinsics& level0, int levels, const Tracker
 // extra SO(3) level (when used) and the rays (3 floats per pixel of the SO(3) level).
 std::size_t tracker_bytes(const TrackerLayout& t, const Intrinsics& level0, int levels) {
   const Intrinsics ks = level0.pyramid_level(t.so3_level);
-  return (2 * kernels::kNeComponents * t.tile_capacity + (t.so3_level == levels ? 4 * static_cast<std::size_t>(t.extra.width) * t.extra.height : 0) +
-          3 * static_cast<std::size_t>(ks.width) * ks.height) *
-         sizeof(float);
+  const std::size_t extra_pixels = static_cast<std::size_t>(t.extra.width) * t.extra.height;
+  const std::size_t so3_images = t.so3_level == levels ? 4 * extra_pixels : 0;
+  const std::size_t rays = 3 * static_cast<std::size_t>(ks.width) * ks.height;
+  return (2 * kernels::kNeComponents * t.tile_capacity + so3_images + rays) * sizeof(float);
 }
 
 }  // namespace
