@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <string>
 
-
 #include "core/arena.h"
 #include "core/image.h"
 #include "io/frame_source.h"
