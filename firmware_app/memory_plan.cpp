@@ -180,11 +180,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   {
     const int s = pred.index_map_scale;
     add("model prediction", slam::ModelPredictor::bytes_for(w, h, levels, pred),
-        std::to_string(s) + "x index map " + size_text(w * s, h * s) + " x 8 bytes + " + std::to_string(levels) +
+        std::to_string(s) + "x index map " + size_text(w * s, h * s) + " x 24 bytes + " + std::to_string(levels) +
             " predicted levels");
   }
   add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, pred.index_map_scale, config.surfel_capacity, fus),
-      "4 bytes x (capacity + min(capacity, index cells) + sweep + 2 x working pixels)");
+      "1 byte per index cell + 4 bytes x (min(capacity, index cells) + sweep + 2 x working pixels)");
   const int stages = kRunStages + (config.labels ? kLabelStages : 0);
   add("stage statistics", static_cast<size_t>(stages + 1) * kStageSamples * sizeof(double),
       std::to_string(stages) + " stages + 1 scratch x " + std::to_string(kStageSamples) + " samples x 8 bytes");

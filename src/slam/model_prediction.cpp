@@ -114,6 +114,7 @@ Result<ModelPredictor> ModelPredictor::create(const Intrinsics& working, int lev
   im.intrinsics = working.scaled_to(w * s, h * s);
   im.id.allocate(w * s, h * s);
   im.depth.allocate(w * s, h * s);
+  im.surface.allocate(w * s, h * s);
   im.id.fill(-1);
   p.winner_.allocate(w, h);
   p.winner_.fill(-1);
@@ -141,7 +142,7 @@ std::size_t ModelPredictor::bytes_for(int width, int height, int levels, const P
     h /= 2;
   }
   const int s = options.index_map_scale;
-  b += px(width * s, height * s) * (sizeof(int32_t) + sizeof(float));  // index map: id + depth
+  b += px(width * s, height * s) * (sizeof(int32_t) + sizeof(float) + sizeof(IndexSurface));  // index map
   b += px(width, height) * (sizeof(int32_t) + sizeof(Rgb8));             // winners, colours
   b += (2 * static_cast<std::size_t>(width) + static_cast<std::size_t>(height)) * sizeof(float);  // rays, scratch row
   return b;
@@ -298,6 +299,90 @@ void transform_block(const float* __restrict x, const float* __restrict y, const
   }
 }
 
+// The discs of one block's tracking candidates, set up for kernels::splat_disc: camera-frame
+// normals, the plane offset, squared radius, the key's tie weight and the pixel box; `draw` is 0 for
+// a surfel that is no candidate, has no radius or whose box misses the image.
+struct DiscBlock {
+  alignas(64) float nx[kBlock];
+  alignas(64) float ny[kBlock];
+  alignas(64) float nz[kBlock];
+  alignas(64) float np[kBlock];
+  alignas(64) float r2[kBlock];
+  alignas(64) float tie[kBlock];
+  alignas(64) int32_t x0[kBlock];
+  alignas(64) int32_t x1[kBlock];
+  alignas(64) int32_t y0[kBlock];
+  alignas(64) int32_t y1[kBlock];
+  alignas(64) int32_t draw[kBlock];
+};
+
+// Constants of setup_discs(): the working intrinsics and the options that shape a disc.
+struct DiscSetup {
+  float fx, fy, cx, cy;  // working image, pixels
+  float wmax, hmax;      // width - 1, height - 1
+  float cap_px;          // PredictionOptions::max_splat_radius_px
+  float tie_fraction;    // PredictionOptions::splat_tie_depth_fraction
+};
+
+// Sets up the discs of the n surfels of block `b` (world normals and radii from the pool columns).
+// The screen half-extents are rigorous and tight for tilted discs (fusion makes grazing surfels up
+// to 4x larger, so a bound that ignores the orientation tests several times the pixels the thin
+// ellipse covers): a disc point p + e (e in the plane, |e| <= r) projects to u - u_c = fx (e_x - tx
+// e_z) / (zc + e_z). The numerator's maximum over the disc is r sqrt(|w|^2 - (n . w)^2) for w = (1,
+// 0, -tx) (a linear function on a disc); the denominator is at least zc - r sqrt(1 - nz^2). Likewise
+// for v. Capped at cap_px (also where the denominator bound is not positive).
+// Branch-free over plain arrays (only selects) so that the compiler vectorises it, as
+// transform_block; per lane the operations are those a scalar loop would do, in the same order.
+void setup_discs(const Block& b, const float* __restrict wnx, const float* __restrict wny,
+                 const float* __restrict wnz, const float* __restrict radius, int n, const float* r,
+                 const DiscSetup& k, DiscBlock& d) {
+  const float r00 = r[0], r01 = r[1], r02 = r[2], r10 = r[3], r11 = r[4], r12 = r[5], r20 = r[6], r21 = r[7], r22 = r[8];
+  for (int i = 0; i < n; ++i) {
+    const float rad = radius[i];
+    const float wx = wnx[i], wy = wny[i], wz = wnz[i];
+    const float nx = r00 * wx + r01 * wy + r02 * wz;
+    const float ny = r10 * wx + r11 * wy + r12 * wz;
+    const float nz = r20 * wx + r21 * wy + r22 * wz;
+    const float xc = b.xc[i], yc = b.yc[i], zc = b.zc[i];
+    const float inv_z = 1.0f / zc;  // zc >= near > 0 for every candidate
+    const float u = k.fx * xc * inv_z + k.cx, v = k.fy * yc * inv_z + k.cy;
+    const float tx = xc * inv_z, ty = yc * inv_z;
+    const float z_min = zc - rad * std::sqrt(std::max(0.0f, 1.0f - nz * nz));
+    const float nwx = nx - nz * tx, nwy = ny - nz * ty;
+    const float sx = std::sqrt(std::max(0.0f, 1.0f + tx * tx - nwx * nwx));
+    const float sy = std::sqrt(std::max(0.0f, 1.0f + ty * ty - nwy * nwy));
+    // Every operation unconditional, then selects: GCC (under its default -ftrapping-math) does not
+    // if-convert, and so does not vectorise, a loop with a float operation inside a condition.
+    const bool bounded = z_min > 0.0f;
+    const float z_den = bounded ? z_min : 1.0f;
+    const float hx_bound = std::min(k.fx * rad * sx / z_den, k.cap_px);
+    const float hy_bound = std::min(k.fy * rad * sy / z_den, k.cap_px);
+    const float hx = bounded ? hx_bound : k.cap_px;
+    const float hy = bounded ? hy_bound : k.cap_px;
+    // The box is ceil(u - hx) .. floor(u + hx) (likewise in v) clipped to the image; it reaches the
+    // image when u + hx >= 0 and u - hx <= wmax (wmax an integer), false for NaN. Without ceil and
+    // floor, which GCC does not vectorise under -ftrapping-math: the ends are first clamped into
+    // [0, wmax] (max(0, x) first also maps NaN to 0), where truncation is the floor and the ceiling
+    // is the truncation plus one unless the value is an integer.
+    const float lo_u = std::min(k.wmax, std::max(0.0f, u - hx)), hi_u = std::min(k.wmax, std::max(0.0f, u + hx));
+    const float lo_v = std::min(k.hmax, std::max(0.0f, v - hy)), hi_v = std::min(k.hmax, std::max(0.0f, v + hy));
+    const bool on_screen = (u + hx >= 0.0f) & (u - hx <= k.wmax) & (v + hy >= 0.0f) & (v - hy <= k.hmax);
+    const auto x0 = static_cast<int32_t>(lo_u), y0 = static_cast<int32_t>(lo_v);
+    d.x0[i] = x0 + static_cast<int32_t>(static_cast<float>(x0) < lo_u);
+    d.x1[i] = static_cast<int32_t>(hi_u);
+    d.y0[i] = y0 + static_cast<int32_t>(static_cast<float>(y0) < lo_v);
+    d.y1[i] = static_cast<int32_t>(hi_v);
+    d.nx[i] = nx;
+    d.ny[i] = ny;
+    d.nz[i] = nz;
+    d.np[i] = nx * xc + ny * yc + nz * zc;  // < 0: the surfel faces the camera
+    const float r2 = rad * rad;
+    d.r2[i] = r2;
+    d.tie[i] = k.tie_fraction / r2;  // per m^2 of e^2
+    d.draw[i] = static_cast<int32_t>((b.candidate[i] != 0) & (rad > 0.0f) & on_screen);
+  }
+}
+
 }  // namespace
 
 void ModelPredictor::render(const SurfelPool& pool, const Pose& pose) {
@@ -325,12 +410,26 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose) {
   k.cand_v_hi = (h + cap) * s - 0.5f;
   int32_t* ids = index_map_.id.data();
   float* depths = index_map_.depth.data();
+  IndexSurface* surfaces = index_map_.surface.data();
   // Software pipeline over blocks: block j+1 is transformed and its index-map entries prefetched
   // before block j is scattered and rasterised. The index map (4.9 MB of depths and as much of ids
   // at 320x240, scale 4) does not fit in cache and the centres land all over it; this way the
   // misses of a block overlap each other and the rasterisation of the previous block instead of
   // stalling the depth test one by one.
   Block blocks[2];
+  DiscBlock discs;
+  DiscSetup disc_setup;
+  {
+    const Intrinsics& K = level_[0].intrinsics;
+    disc_setup.fx = K.fx;
+    disc_setup.fy = K.fy;
+    disc_setup.cx = K.cx;
+    disc_setup.cy = K.cy;
+    disc_setup.wmax = static_cast<float>(K.width - 1);
+    disc_setup.hmax = static_cast<float>(K.height - 1);
+    disc_setup.cap_px = cap;
+    disc_setup.tie_fraction = options_.splat_tie_depth_fraction;
+  }
   const int64_t size = pool.size();
   const auto prepare = [&](int64_t begin, Block& b) {
     const int n = static_cast<int>(std::min<int64_t>(kBlock, size - begin));
@@ -342,15 +441,21 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose) {
       if (p < 0) continue;
       __builtin_prefetch(depths + p, 1);
       __builtin_prefetch(ids + p, 1);
+      __builtin_prefetch(surfaces + p, 1);
     }
   };
-  int64_t drawn = 0, candidates = 0;
+  int64_t drawn = 0, candidates = 0, splatted = 0;
+  float* key = level_[0].depth.data();
+  const int image_width = level_[0].intrinsics.width;
   if (size > 0) prepare(0, blocks[0]);
   for (int64_t begin = 0, j = 0; begin < size; begin += kBlock, ++j) {
     const int n = static_cast<int>(std::min<int64_t>(kBlock, size - begin));
     if (begin + kBlock < size) prepare(begin + kBlock, blocks[(j + 1) & 1]);
     const Block& b = blocks[j & 1];
-    // (a) Index map: the nearest centre wins each index pixel (depth 0 = empty).
+    // (a) Index map: the nearest centre wins each index pixel (depth 0 = empty), with the copy of
+    // its normal and confidence that fusion gates on (slam/index_map.h).
+    const float *nx = pool.nx() + begin, *ny = pool.ny() + begin, *nz = pool.nz() + begin;
+    const float* conf = pool.confidence() + begin;
     for (int i = 0; i < n; ++i) {
       const int32_t p = b.pixel[i];
       if (p < 0) continue;
@@ -359,80 +464,43 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose) {
       if (d == 0.0f || b.zc[i] < d) {
         depths[p] = b.zc[i];
         ids[p] = static_cast<int32_t>(begin + i);
+        surfaces[p] = IndexSurface{nx[i], ny[i], nz[i], conf[i]};
       }
     }
-    // (b) Tracking maps: discs of the candidates.
+    // (b) Tracking maps: discs of the candidates, set up for the whole block, then rasterised.
+    for (int i = 0; i < n; ++i) candidates += b.candidate[i];
+    setup_discs(b, pool.nx() + begin, pool.ny() + begin, pool.nz() + begin, pool.radius() + begin, n, pose.r,
+                disc_setup, discs);
     for (int i = 0; i < n; ++i) {
-      if (!b.candidate[i]) continue;
-      ++candidates;
-      splat(pool, pose, begin + i, b.xc[i], b.yc[i], b.zc[i]);
+      if (!discs.draw[i]) continue;
+      ++splatted;
+      kernels::SplatDisc d;
+      d.nx = discs.nx[i];
+      d.ny = discs.ny[i];
+      d.nz = discs.nz[i];
+      d.xc = b.xc[i];
+      d.yc = b.yc[i];
+      d.zc = b.zc[i];
+      d.np = discs.np[i];
+      d.r2 = discs.r2[i];
+      d.tie = discs.tie[i];
+      d.near = options_.near_clip_m;
+      d.id = static_cast<int32_t>(begin + i);
+      d.x0 = discs.x0[i];
+      d.x1 = discs.x1[i];
+      d.y0 = discs.y0[i];
+      d.y1 = discs.y1[i];
+      // A pixel of the box is covered when its ray d = (ray_x, ray_y, 1) meets the surfel's plane
+      // n . (X - p) = 0 at a point X = z d within the radius of p (z = (n . p) / (n . d), the camera
+      // depth of that point); its visibility key is z (1 + tie e^2 / r^2), e = |X - p|
+      // (PredictionOptions::splat_tie_depth_fraction), and the smallest key wins. Computed as selects
+      // (kernels/splat_disc.h; SIMD across the pixels of a row, bit-identical to its scalar twin).
+      kernels::splat_disc(d, ray_x_.data(), ray_y_.data(), key, winner_.data(), image_width);
     }
   }
   counters_.index_surfels = drawn;
   counters_.tracking_candidates = candidates;
-}
-
-// Rasterises surfel `id` (camera-frame centre p = (xc, yc, zc), zc within the clip range) into the
-// level-0 key / winner buffers, over the bounding box of its projected disc (capped); a pixel
-// is covered when its ray d = (ray_x, ray_y, 1) meets the surfel's plane n . (X - p) = 0 at a point
-// X = z d within `radius` of p, where z = (n . p) / (n . d) is the camera depth of that point. The
-// pixel's visibility key is z (1 + tie e^2 / r^2), e = |X - p| (PredictionOptions::
-// splat_tie_depth_fraction); the smallest key wins.
-void ModelPredictor::splat(const SurfelPool& pool, const Pose& pose, int64_t id, float xc, float yc, float zc) {
-  const Intrinsics& K = level_[0].intrinsics;
-  const float radius = pool.radius()[id];
-  if (!(radius > 0.0f)) return;
-  const float wx = pool.nx()[id], wy = pool.ny()[id], wz = pool.nz()[id];
-  const float* r = pose.r;
-  const float nx = r[0] * wx + r[1] * wy + r[2] * wz;
-  const float ny = r[3] * wx + r[4] * wy + r[5] * wz;
-  const float nz = r[6] * wx + r[7] * wy + r[8] * wz;
-  const float inv_z = 1.0f / zc;
-  const float u = K.fx * xc * inv_z + K.cx, v = K.fy * yc * inv_z + K.cy;
-  const float tx = xc * inv_z, ty = yc * inv_z;
-  // Screen half-extents of the disc, rigorous and tight for tilted discs (fusion makes grazing
-  // surfels up to 4x larger, so a bound that ignores the orientation tests several times the
-  // pixels the thin ellipse covers). A disc point p + e (e in the plane, |e| <= r) projects to
-  // u - u_c = fx (e_x - tx e_z) / (zc + e_z). The numerator's maximum over the disc is
-  // r sqrt(|w|^2 - (n . w)^2) for w = (1, 0, -tx) (a linear function on a disc); the denominator is
-  // at least zc - r sqrt(1 - nz^2). Likewise for v. Capped at max_splat_radius_px.
-  const float cap = options_.max_splat_radius_px;
-  const float z_min = zc - radius * std::sqrt(std::max(0.0f, 1.0f - nz * nz));
-  float hx = cap, hy = cap;
-  if (z_min > 0.0f) {
-    const float nwx = nx - nz * tx, nwy = ny - nz * ty;
-    const float sx = std::sqrt(std::max(0.0f, 1.0f + tx * tx - nwx * nwx));
-    const float sy = std::sqrt(std::max(0.0f, 1.0f + ty * ty - nwy * nwy));
-    hx = std::min(K.fx * radius * sx / z_min, cap);
-    hy = std::min(K.fy * radius * sy / z_min, cap);
-  }
-  // Clamp before converting: u can be far outside the image for a surfel at a grazing angle.
-  const float wmax = static_cast<float>(K.width - 1), hmax = static_cast<float>(K.height - 1);
-  const float fx0 = std::ceil(u - hx), fx1 = std::floor(u + hx), fy0 = std::ceil(v - hy), fy1 = std::floor(v + hy);
-  if (!(fx1 >= 0.0f && fx0 <= wmax && fy1 >= 0.0f && fy0 <= hmax)) return;  // off screen (or NaN)
-  const int x0 = static_cast<int>(std::max(fx0, 0.0f)), x1 = static_cast<int>(std::min(fx1, wmax));
-  const int y0 = static_cast<int>(std::max(fy0, 0.0f)), y1 = static_cast<int>(std::min(fy1, hmax));
-  ++counters_.splatted_surfels;
-
-  kernels::SplatDisc d;
-  d.nx = nx;
-  d.ny = ny;
-  d.nz = nz;
-  d.xc = xc;
-  d.yc = yc;
-  d.zc = zc;
-  d.np = nx * xc + ny * yc + nz * zc;  // < 0: the surfel faces the camera
-  d.r2 = radius * radius;
-  d.tie = options_.splat_tie_depth_fraction / d.r2;  // per m^2 of e^2
-  d.near = options_.near_clip_m;
-  d.id = static_cast<int32_t>(id);
-  d.x0 = x0;
-  d.x1 = x1;
-  d.y0 = y0;
-  d.y1 = y1;
-  // Per pixel of the box: the ray-plane intersection, the radius and clip tests and the key test, as
-  // selects (kernels/splat_disc.h; SIMD across the pixels of a row, bit-identical to its scalar twin).
-  kernels::splat_disc(d, ray_x_.data(), ray_y_.data(), level_[0].depth.data(), winner_.data(), K.width);
+  counters_.splatted_surfels = splatted;
 }
 
 // Level 0 from the winners: vertex = z (ray_x, ray_y, 1) with z = (n . p) / (n . d) the depth of the

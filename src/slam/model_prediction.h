@@ -37,15 +37,16 @@
 //
 // Cost (bench/slam_predict.cpp): the pool is read in blocks of 256 surfels; a branch-free loop
 // transforms and projects a block (vectorised; surfels behind the camera or outside the clip range
-// are masked, not branched on), then scalar loops scatter the centres into the index map and set up
-// the discs of the tracking candidates, whose pixels are tested by kernels/splat_disc (SIMD across the
-// pixels of a row: SSE4.1 / AVX2 / NEON, bit-identical to its scalar twin); resolve() prefetches the
+// are masked, not branched on), then a scalar loop scatters the centres into the index map, another
+// branch-free loop sets up the block's discs (vectorised too) and the discs of the tracking
+// candidates are tested pixel by pixel by kernels/splat_disc (SIMD across the pixels of a row:
+// SSE4.1 / AVX2 / NEON, bit-identical to its scalar twin); resolve() prefetches the
 // next row's winners. Measured (thread CPU time, one x86-64 core of a shared machine, 320x240,
 // fusion-sized radii, 300k surfels of which ~80k discs in view): 13.9 ms with scalar disc rows,
 // 10.4 ms with the kernel (AVX2); the transform and index map are ~1.9 ms of that, resolve 1.3 ms,
 // the pyramid 1.6 ms.
 //
-// Memory: create() allocates everything (at 320x240, scale 1, 3 levels: 0.6 MB of index map, 3.6 MB
+// Memory: create() allocates everything (at 320x240, scale 1, 3 levels: 1.8 MB of index map, 3.6 MB
 // of level-0 buffers and maps, 1.0 MB for levels 1-2); predict() performs no heap allocation.
 // Threads: one ModelPredictor per thread; predict() and the accessors must not run concurrently.
 #pragma once
@@ -200,7 +201,6 @@ class ModelPredictor {
   struct Pose;  // the float camera transform of one predict() call (model_prediction.cpp)
   void clear();
   void render(const SurfelPool& pool, const Pose& pose);
-  void splat(const SurfelPool& pool, const Pose& pose, int64_t id, float xc, float yc, float zc);
   void resolve(const SurfelPool& pool, const Pose& pose);
   void vertex_normal(int l);
   void downsample_intensity(int l);

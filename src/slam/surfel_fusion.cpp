@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <sstream>
 
@@ -21,9 +22,6 @@ constexpr float kDegToRad = 3.14159265358979f / 180.0f;
 constexpr int kMaxScale = 4;  // IndexMap: 1..4
 constexpr int kMaxMargin = 4;  // FusionOptions::search_margin_index_px
 constexpr int kMaxWindow = kMaxScale + 2 * kMaxMargin;
-// Epochs use the bits of state_ above the flags; on reaching this the state is cleared and the count
-// restarts (once every 2^28 frames, ~100 days at 30 Hz).
-constexpr uint32_t kMaxEpoch = (1u << 28) - 1;
 constexpr uint8_t kGreyLevel = 128;  // colour of new surfels when the frame has none
 constexpr int kPrefetchAhead = 32;   // index pixels (128 bytes) ahead of a window row
 // Working pixels ahead whose candidates' per-surfel data is prefetched (see scan_window).
@@ -119,15 +117,20 @@ int64_t seen_list_capacity(int64_t pixels, int index_map_scale, int64_t pool_cap
   return std::min(pool_capacity, pixels * index_map_scale * index_map_scale);
 }
 
+int64_t sweep_words(int64_t sweep) { return (sweep + 63) / 64; }
+
 }  // namespace
 
 std::size_t SurfelFusion::bytes_for(int width, int height, int index_map_scale, int64_t pool_capacity,
                                     const FusionOptions& options) {
   const int64_t pixels = static_cast<int64_t>(width) * height;
+  const int64_t cells = pixels * index_map_scale * index_map_scale;
   const int64_t seen_entries =
       seen_list_capacity(pixels, index_map_scale, pool_capacity) + options.lifetime_sweep_per_frame;
-  // state_ (uint32 per surfel), seen_ (int32 per entry), unmatched_ (int32) and weight_ (float) per pixel.
-  return static_cast<std::size_t>(pool_capacity + seen_entries + 2 * pixels) * 4;
+  // cell_state_ (a byte per index pixel), seen_ (int32 per entry), unmatched_ (int32) and weight_
+  // (float) per pixel, sweep_decided_ (a bit per sweep id, in 64-bit words).
+  return static_cast<std::size_t>(cells + (seen_entries + 2 * pixels) * 4 +
+                                  sweep_words(options.lifetime_sweep_per_frame) * 8);
 }
 
 Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_map_scale, int64_t pool_capacity,
@@ -152,7 +155,9 @@ Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_m
   const int64_t pixels = static_cast<int64_t>(working.width) * working.height;
   f.seen_capacity_ = seen_list_capacity(pixels, index_map_scale, pool_capacity);
   const int64_t seen_entries = f.seen_capacity_ + options.lifetime_sweep_per_frame;
-  f.state_.reset(new uint32_t[static_cast<std::size_t>(pool_capacity)]());
+  f.cells_ = pixels * index_map_scale * index_map_scale;
+  f.cell_state_.reset(new uint8_t[static_cast<std::size_t>(f.cells_)]());
+  f.sweep_decided_.reset(new uint64_t[static_cast<std::size_t>(sweep_words(options.lifetime_sweep_per_frame))]());
   f.seen_.reset(new int32_t[static_cast<std::size_t>(seen_entries)]);
   f.unmatched_.reset(new int32_t[static_cast<std::size_t>(pixels)]);
   f.weight_.allocate(working.width, working.height);
@@ -171,20 +176,16 @@ Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_m
   return f;
 }
 
-void SurfelFusion::begin_epoch() {
-  if (epoch_ >= kMaxEpoch) {
-    std::fill(state_.get(), state_.get() + capacity_, 0u);
-    epoch_ = 0;
-  }
-  ++epoch_;
+void SurfelFusion::begin_frame() {
+  std::memset(cell_state_.get(), 0, static_cast<std::size_t>(cells_));
   seen_count_ = 0;
   unmatched_count_ = 0;
 }
 
-void SurfelFusion::see(int64_t id) {
-  if (flags(id) & kSeen) return;
-  state_[id] = (epoch_ << kStateBits) | kSeen;
-  if (seen_count_ < seen_capacity_) seen_[seen_count_++] = static_cast<int32_t>(id);
+void SurfelFusion::see(int32_t cell) {
+  if (cell_state_[cell] & kSeen) return;
+  cell_state_[cell] = kSeen;
+  if (seen_count_ < seen_capacity_) seen_[seen_count_++] = cell;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -281,7 +282,8 @@ inline uint32_t occupied_cells(const int32_t* ids, int from, int to) {
 struct SurfelFusion::WindowScan {
   struct Gated {
     int64_t id;
-    int bx, by;  // its index pixel
+    int bx, by;    // its index pixel
+    int32_t cell;  // the same as by * index width + bx
   };
   int best = -1;  // into gated
   bool best_updated = false;
@@ -290,39 +292,46 @@ struct SurfelFusion::WindowScan {
   Gated gated[kMaxWindow * kMaxWindow];
 };
 
-// One index pixel (bx, by) holding surfel `id` as a candidate of pixel `px`.
-inline void SurfelFusion::visit_cell(const FrameContext& fc, const SurfelPool& pool, const PixelContext& px, int32_t id,
-                                     float surfel_z, int bx, int by, bool in_base, WindowScan* ws, FusionStats& st) {
-  if (id < 0) return;
+// The occupied index pixel (bx, by) as a candidate of pixel `px`: gated on the map's depth and its
+// copy of the surfel's normal and confidence (slam/index_map.h), so that the pool is read only for a
+// surfel this frame has updated already (its columns were just written, so they are in cache): every
+// pixel sees each surfel as the pool holds it at that moment, as it would reading the pool alone.
+inline void SurfelFusion::visit_cell(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool,
+                                     const PixelContext& px, int bx, int by, bool in_base, WindowScan* ws,
+                                     FusionStats& st) {
+  const int32_t cell = by * index.id.width() + bx;
+  const int32_t id = index.id.data()[cell];
   if (id >= fc.pool_size) {
     ++st.invalid_index_ids;
     return;
   }
-  see(id);
-  const uint32_t f = flags(id);
+  see(cell);
+  const uint8_t f = flags(cell);
   if (f & kMerged) return;
   ++ws->n_candidates;
-  const float dz = surfel_z - px.p_i.z();  // > 0: the surfel is behind the measurement
+  const float dz = index.depth.data()[cell] - px.p_i.z();  // > 0: the surfel is behind the measurement
   if (dz < -options_.free_space_gate_factor * px.gate) {
     // The sensor sees through it (judged in clean()); only for the pixel's own footprint.
-    if (in_base) set_flag(id, kViolated);
+    if (in_base) set_flag(cell, kViolated);
     return;
   }
   if (std::fabs(dz) > px.gate) return;
   ++ws->n_depth_ok;
-  const float cos_n = pool.nx()[id] * px.n_w.x() + pool.ny()[id] * px.n_w.y() + pool.nz()[id] * px.n_w.z();
+  const bool updated = (f & kUpdated) != 0;
+  const IndexSurface surface = updated ? IndexSurface{pool.nx()[id], pool.ny()[id], pool.nz()[id], pool.confidence()[id]}
+                                       : index.surface.data()[cell];
+  const float cos_n = surface.nx * px.n_w.x() + surface.ny * px.n_w.y() + surface.nz * px.n_w.z();
   if (cos_n < cos_normal_gate_) return;
   const float ex = static_cast<float>(bx) - px.xi, ey = static_cast<float>(by) - px.yi;
   const float d2 = ex * ex + ey * ey;
-  const float conf = pool.confidence()[id];
-  const bool updated = (f & kUpdated) != 0;
+  const float conf = surface.confidence;
   if (candidate_better(updated, d2, conf, ws->best >= 0, ws->best_updated, ws->best_d2, ws->best_conf)) {
     ws->best = ws->n_gated;
     ws->best_updated = updated;
     ws->best_d2 = d2;
     ws->best_conf = conf;
   }
-  ws->gated[ws->n_gated++] = WindowScan::Gated{id, bx, by};
+  ws->gated[ws->n_gated++] = WindowScan::Gated{id, bx, by, cell};
 }
 
 // The base block first; the margin only when no surfel of the block passes the gates (most pixels
@@ -337,31 +346,27 @@ void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, co
   const int bx1 = bx0 + scale_, by1 = by0 + scale_;  // exclusive
   for (int by = std::max(by0, 0); by < std::min(by1, ih); ++by) {
     const int32_t* ids = &index.id(0, by);
-    const float* depths = &index.depth(0, by);
-    // A window row streams through a map far larger than the caches (1280 x 960 x 8 bytes at
+    // A window row streams through a map far larger than the caches (1280 x 960 x 24 bytes at
     // 320x240, scale 4), several rows at once, which the hardware prefetcher does not keep up with
     // (measured: about 20% of fuse() less with this). Fetch a few pixels ahead.
     if (bx0 + kPrefetchAhead < iw) {
       __builtin_prefetch(ids + bx0 + kPrefetchAhead);
-      __builtin_prefetch(depths + bx0 + kPrefetchAhead);
+      __builtin_prefetch(&index.depth(0, by) + bx0 + kPrefetchAhead);
+      __builtin_prefetch(&index.surface(0, by) + bx0 + kPrefetchAhead);
     }
-    // The surfels a pixel visits sit anywhere in the pool (ids follow creation order, not space),
-    // so every column of a candidate is a cache miss once the pool outgrows the caches: about
-    // half of fuse() at 470k surfels went into the first loads of the state, the normal and the
-    // picked surfel's radius. The pixel kSurfelPrefetchPixels to the right
-    // visits nearly the same rows kSurfelPrefetchPixels x scale cells further on: fetch its
-    // candidates' data now, so it has arrived when that pixel is scanned. Only hints: no result
-    // depends on them.
+    // The surfel a pixel picks sits anywhere in the pool's columns, which fuse_sample() then reads
+    // and writes: a cache miss per column once the pool outgrows the caches. The pixel
+    // kSurfelPrefetchPixels to the right visits nearly the same rows kSurfelPrefetchPixels x scale
+    // cells further on: fetch its candidates' columns now, so they have arrived when that pixel is
+    // fused. Only hints: no result depends on them.
     const int ahead = std::max(bx0 + kSurfelPrefetchPixels * scale_, 0);
     for (uint32_t bits = occupied_cells(ids, ahead, std::min(ahead + scale_, iw)); bits != 0; bits &= bits - 1) {
       const int32_t id = ids[ahead + __builtin_ctz(bits)];
       if (id >= fc.pool_size) continue;
-      __builtin_prefetch(&state_[id]);
       __builtin_prefetch(pool.nx() + id);
       __builtin_prefetch(pool.ny() + id);
       __builtin_prefetch(pool.nz() + id);
       __builtin_prefetch(pool.confidence() + id);
-      // What fuse_sample() then reads and writes of the surfel the pixel picks.
       __builtin_prefetch(pool.radius() + id);
       __builtin_prefetch(pool.x() + id);
       __builtin_prefetch(pool.y() + id);
@@ -370,29 +375,22 @@ void SurfelFusion::scan_window(const FrameContext& fc, const IndexMap& index, co
       __builtin_prefetch(pool.last_seen() + id);
     }
     const int from = std::max(bx0, 0);
-    for (uint32_t bits = occupied_cells(ids, from, std::min(bx1, iw)); bits != 0; bits &= bits - 1) {
-      const int bx = from + __builtin_ctz(bits);
-      visit_cell(fc, pool, px, ids[bx], depths[bx], bx, by, true, ws, st);
-    }
+    for (uint32_t bits = occupied_cells(ids, from, std::min(bx1, iw)); bits != 0; bits &= bits - 1)
+      visit_cell(fc, index, pool, px, from + __builtin_ctz(bits), by, true, ws, st);
   }
   const int margin = options_.search_margin_index_px;
   if (margin == 0 || ws->best >= 0) return;
   const int x0 = bx0 - margin, y0 = by0 - margin, x1 = bx1 + margin, y1 = by1 + margin;
   for (int by = std::max(y0, 0); by < std::min(y1, ih); ++by) {
     const int32_t* ids = &index.id(0, by);
-    const float* depths = &index.depth(0, by);
     // Rows through the block visit [x0, bx0) and [bx1, x1); the others [x0, x1).
     const bool base_row = by >= by0 && by < by1;
     const int gap_from = base_row ? bx0 : x1, gap_to = base_row ? bx1 : x1;
     const int left = std::max(x0, 0), right = std::max(gap_to, 0);
-    for (uint32_t bits = occupied_cells(ids, left, std::min(gap_from, iw)); bits != 0; bits &= bits - 1) {
-      const int bx = left + __builtin_ctz(bits);
-      visit_cell(fc, pool, px, ids[bx], depths[bx], bx, by, false, ws, st);
-    }
-    for (uint32_t bits = occupied_cells(ids, right, std::min(x1, iw)); bits != 0; bits &= bits - 1) {
-      const int bx = right + __builtin_ctz(bits);
-      visit_cell(fc, pool, px, ids[bx], depths[bx], bx, by, false, ws, st);
-    }
+    for (uint32_t bits = occupied_cells(ids, left, std::min(gap_from, iw)); bits != 0; bits &= bits - 1)
+      visit_cell(fc, index, pool, px, left + __builtin_ctz(bits), by, false, ws, st);
+    for (uint32_t bits = occupied_cells(ids, right, std::min(x1, iw)); bits != 0; bits &= bits - 1)
+      visit_cell(fc, index, pool, px, right + __builtin_ctz(bits), by, false, ws, st);
   }
 }
 
@@ -404,14 +402,14 @@ void SurfelFusion::merge_duplicates(SurfelPool& pool, const WindowScan& ws, floa
   WindowScan::Gated keep = ws.gated[ws.best];
   for (int k = 0; k < ws.n_gated; ++k) {
     const WindowScan::Gated& other = ws.gated[k];
-    if (other.id == keep.id || (flags(other.id) & kMerged)) continue;
+    if (other.id == keep.id || (flags(other.cell) & kMerged)) continue;
     if (std::abs(other.bx - keep.bx) > max_cells || std::abs(other.by - keep.by) > max_cells) continue;
     if (!mergeable(pool, keep.id, other.id, z)) continue;
     const bool swap = pool.confidence()[other.id] > pool.confidence()[keep.id];
     const WindowScan::Gated into = swap ? other : keep, from = swap ? keep : other;
     fusion_math::merge_into(pool, into.id, from.id);
-    set_flag(from.id, kMerged);
-    set_flag(into.id, kUpdated);
+    set_flag(from.cell, kMerged);
+    set_flag(into.cell, kUpdated);
     ++st.merged;
     keep = into;
   }
@@ -450,10 +448,11 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
         ++st.covered_pixels;
         continue;
       }
-      const int64_t best = ws.gated[ws.best].id;
+      const WindowScan::Gated& best = ws.gated[ws.best];
       const fusion_math::Sample sample = sample_at(fc, px);
-      if (!fusion_math::fuse_sample(pool, best, sample, options_.max_radius_growth, frame_index)) ++st.confirmed_only;
-      set_flag(best, kUpdated);
+      if (!fusion_math::fuse_sample(pool, best.id, sample, options_.max_radius_growth, frame_index))
+        ++st.confirmed_only;
+      set_flag(best.cell, kUpdated);
       ++st.fused_pixels;
       merge_duplicates(pool, ws, px.p_i.z(), st);
     }
@@ -462,16 +461,27 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
 
 // Step 3: decide over the seen surfels and one sweep's worth of ids, then swap-remove from high ids
 // to low (the surfel moved into a freed slot always comes from above it and is never to be removed).
-void SurfelFusion::clean(SurfelPool& pool, int32_t frame_index, FusionStats& st) {
+void SurfelFusion::clean(const IndexMap& index, SurfelPool& pool, int32_t frame_index, FusionStats& st) {
   const float stable = options_.stable_confidence;
   const int64_t lifetime = options_.unstable_lifetime_frames;
   const auto too_old = [&](int64_t id) {
     return pool.confidence()[id] < stable && static_cast<int64_t>(frame_index) - pool.init_time()[id] > lifetime;
   };
-  int64_t out = 0;  // ids to remove are compacted to the front of seen_
+  // The sweep covers ids cursor, cursor + 1, ... (wrapping at the pool's size); a seen surfel among
+  // them is decided by the first loop and marked here so that the sweep passes over it.
+  const int64_t size = pool.size();
+  const int64_t sweep = std::min<int64_t>(options_.lifetime_sweep_per_frame, size);
+  if (sweep_cursor_ >= size) sweep_cursor_ = 0;
+  std::fill(sweep_decided_.get(), sweep_decided_.get() + sweep_words(sweep), uint64_t{0});
+
+  int64_t out = 0;  // ids to remove are compacted to the front of seen_ (which held index pixels)
   for (int64_t k = 0; k < seen_count_; ++k) {
-    const int32_t id = seen_[k];
-    const uint32_t f = flags(id);
+    const int32_t cell = seen_[k];
+    const int32_t id = index.id.data()[cell];
+    const uint8_t f = flags(cell);
+    int64_t offset = id - sweep_cursor_;
+    if (offset < 0) offset += size;
+    if (offset < sweep) sweep_decided_[offset >> 6] |= uint64_t{1} << (offset & 63);
     bool remove = false;
     if (f & kMerged) {
       remove = true;  // counted in st.merged when merged
@@ -490,13 +500,10 @@ void SurfelFusion::clean(SurfelPool& pool, int32_t frame_index, FusionStats& st)
     if (remove) seen_[out++] = id;
   }
 
-  const int64_t size = pool.size();
-  const int64_t sweep = std::min<int64_t>(options_.lifetime_sweep_per_frame, size);
-  if (sweep_cursor_ >= size) sweep_cursor_ = 0;
   for (int64_t k = 0; k < sweep; ++k) {
     const int64_t id = sweep_cursor_;
     if (++sweep_cursor_ >= size) sweep_cursor_ = 0;
-    if (flags(id) & kSeen) continue;  // decided above
+    if ((sweep_decided_[k >> 6] >> (k & 63)) & 1) continue;  // decided above
     if (too_old(id)) {
       seen_[out++] = static_cast<int32_t>(id);
       ++st.removed_stale;
@@ -504,7 +511,10 @@ void SurfelFusion::clean(SurfelPool& pool, int32_t frame_index, FusionStats& st)
   }
 
   std::sort(seen_.get(), seen_.get() + out, std::greater<int32_t>());
-  for (int64_t k = 0; k < out; ++k) pool.remove(seen_[k]);
+  // The predictor puts a surfel into one index pixel only; an index map made otherwise that lists
+  // an id twice must still not remove it twice.
+  for (int64_t k = 0; k < out; ++k)
+    if (k == 0 || seen_[k] != seen_[k - 1]) pool.remove(seen_[k]);
 }
 
 // Step 4: new surfels for the unmatched pixels, as many as the pool admits, spread over the image.
@@ -564,10 +574,15 @@ Status SurfelFusion::fuse(const Preprocessor& frame, ImageView<const Rgb8> color
                        std::to_string(index.id.width()) + "x" + std::to_string(index.id.height()) +
                        "; expected scale " + std::to_string(scale_) + ", " + std::to_string(iw) + "x" +
                        std::to_string(ih));
+    if (index.surface.width() != iw || index.surface.height() != ih)
+      return error(ErrorCode::kInvalidArgument,
+                   "surfel fusion: index map has " + std::to_string(index.surface.width()) + "x" +
+                       std::to_string(index.surface.height()) + " surfaces for " + std::to_string(iw) + "x" +
+                       std::to_string(ih) + " ids (slam/index_map.h: copy_surfaces_from_pool)");
   }
 
   *stats = FusionStats{};
-  begin_epoch();
+  begin_frame();
   color_ = color;
 
   FrameContext fc;
@@ -593,7 +608,7 @@ Status SurfelFusion::fuse(const Preprocessor& frame, ImageView<const Rgb8> color
   stats->associate_ms = ms_since(t0);
 
   t0 = Clock::now();
-  clean(*pool, frame_index, *stats);
+  clean(index, *pool, frame_index, *stats);
   stats->clean_ms = ms_since(t0);
 
   t0 = Clock::now();

@@ -8,9 +8,11 @@
 //                    which saves a second render on the CPU) and projected into the index grid. Its
 //                    candidates are the surfels of the scale x scale block of index pixels around the
 //                    projection (the pixel's footprint), and only when none of those passes the
-//                    gates, of a margin of search_margin_index_px around the block. A candidate
-//                    passes the depth gate |z_surfel - z_measured| <= depth_gate_m(z) (along the index
-//                    camera's ray: the map stores the surfel's depth in that camera) and the normal gate
+//                    gates, of a margin of search_margin_index_px around the block (the gates read
+//                    the index map's copy of each candidate's normal and confidence: slam/index_map.h).
+//                    A candidate passes the depth gate |z_surfel - z_measured| <= depth_gate_m(z)
+//                    (along the index camera's ray: the map stores the surfel's depth in that camera)
+//                    and the normal gate
 //                    (angle <= association_normal_deg, world frame). The winner is a surfel not yet
 //                    updated this frame if there is one, then the nearest to the ray (index-pixel
 //                    distance of its centre), then the most confident. If the winner was already
@@ -48,10 +50,11 @@
 // Radius (ElasticFusion): r = sqrt(2) z / f / |cos(incidence)|, the disc that covers the pixel's
 // footprint on the surface; 1/|cos| capped at max_radius_incidence_factor.
 //
-// Memory: create() allocates everything, bytes(): 4 per surfel of pool capacity (per-surfel state
-// of the current frame), 4 per entry of the list of seen surfels (min(capacity, index pixels) plus
-// lifetime_sweep_per_frame), 8 per working pixel (unmatched pixels, confidence weights); 8.7 MB at
-// 320x240 with a 1,000,000-surfel pool. fuse() never touches the heap.
+// Memory: create() allocates everything, bytes(): 1 per index pixel (the state of the current
+// frame), 4 per entry of the list of seen surfels (min(capacity, index pixels) plus
+// lifetime_sweep_per_frame), one bit per id of the lifetime sweep, 8 per working pixel (unmatched
+// pixels, confidence weights); 1.1 MB at 320x240 and index map scale 1 with the default sweep,
+// whatever the pool's capacity. fuse() never touches the heap.
 // Threads: one SurfelFusion per mapping thread; fuse() is not reentrant.
 #pragma once
 
@@ -328,33 +331,30 @@ class SurfelFusion {
  private:
   SurfelFusion() = default;
 
-  // Per-surfel state of the current frame, in state_[id]: (epoch_ << kStateBits) | flags. A value
-  // with another epoch means "untouched this frame", so nothing is cleared between frames.
-  enum StateFlag : uint32_t { kSeen = 1, kUpdated = 2, kViolated = 4, kMerged = 8 };
-  static constexpr uint32_t kStateBits = 4;
+  // State of the current frame, per index pixel: a surfel's centre lands in at most one index
+  // pixel, so the flags of the pixel are those of its surfel, kept in an array of the index map's
+  // size (read and written row by row, like the map) rather than one indexed by scattered surfel ids.
+  enum StateFlag : uint8_t { kSeen = 1, kUpdated = 2, kViolated = 4, kMerged = 8 };
 
   struct PixelContext;  // one pixel's measurement, in the frames the loop needs (surfel_fusion.cpp)
   struct FrameContext;  // per-frame transforms and gates
   struct WindowScan;    // one pixel's candidates
 
-  void begin_epoch();
-  uint32_t flags(int64_t id) const {
-    const uint32_t s = state_[id];
-    return (s >> kStateBits) == epoch_ ? (s & ((1u << kStateBits) - 1)) : 0u;
-  }
-  void set_flag(int64_t id, uint32_t f) { state_[id] = (epoch_ << kStateBits) | flags(id) | f; }
-  // Marks `id` seen (and lists it) the first time this frame.
-  void see(int64_t id);
+  void begin_frame();
+  uint8_t flags(int32_t cell) const { return cell_state_[cell]; }
+  void set_flag(int32_t cell, uint8_t f) { cell_state_[cell] = static_cast<uint8_t>(cell_state_[cell] | f); }
+  // Marks the surfel of index pixel `cell` seen (and lists the pixel) the first time this frame.
+  void see(int32_t cell);
 
   bool make_pixel(const FrameContext& fc, int x, int y, PixelContext* px) const;
   void associate(const FrameContext& fc, const IndexMap& index, SurfelPool& pool, int32_t frame_index,
                  FusionStats& st);
-  void visit_cell(const FrameContext& fc, const SurfelPool& pool, const PixelContext& px, int32_t id, float surfel_z,
-                  int bx, int by, bool in_base, WindowScan* ws, FusionStats& st);
+  void visit_cell(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool, const PixelContext& px, int bx,
+                  int by, bool in_base, WindowScan* ws, FusionStats& st);
   void scan_window(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool, const PixelContext& px,
                    WindowScan* ws, FusionStats& st);
   void merge_duplicates(SurfelPool& pool, const WindowScan& ws, float z, FusionStats& st);
-  void clean(SurfelPool& pool, int32_t frame_index, FusionStats& st);
+  void clean(const IndexMap& index, SurfelPool& pool, int32_t frame_index, FusionStats& st);
   void create_new(const FrameContext& fc, SurfelPool& pool, int32_t frame_index, FusionStats& st);
   fusion_math::Sample sample_at(const FrameContext& fc, const PixelContext& px) const;
   bool mergeable(const SurfelPool& pool, int64_t a, int64_t b, float z) const;
@@ -371,10 +371,12 @@ class SurfelFusion {
   float cos_normal_gate_ = 0, cos_merge_gate_ = 0, focal_ = 0;
   ImageView<const Rgb8> color_;            // the current frame's colour (fuse() only)
 
-  std::unique_ptr<uint32_t[]> state_;      // capacity_ entries, see StateFlag
-  uint32_t epoch_ = 0;
-  std::unique_ptr<int32_t[]> seen_;        // ids seen this frame, then the ids to remove
+  std::unique_ptr<uint8_t[]> cell_state_;  // StateFlag bits per index pixel, cleared by begin_frame()
+  int64_t cells_ = 0;                      // index pixels
+  std::unique_ptr<int32_t[]> seen_;        // index pixels seen this frame, then the ids to remove
   int64_t seen_capacity_ = 0, seen_count_ = 0;
+  // One bit per id of this frame's lifetime sweep: set when the seen surfels already decided it.
+  std::unique_ptr<uint64_t[]> sweep_decided_;
   std::unique_ptr<int32_t[]> unmatched_;   // pixel indices y * width + x of unmatched valid pixels
   int64_t unmatched_count_ = 0;
   Image<float> weight_;                    // confidence weight per working pixel

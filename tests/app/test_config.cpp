@@ -367,23 +367,24 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
     EXPECT_GT(plan->bytes_of(part), 0u) << part << " missing in\n" << plan->table();
   EXPECT_EQ(plan->bytes_of("dense crf"), 0u);  // off by default
   // docs/architecture.md, memory budget: 60 bytes per surfel; 640x480 x 8 source frame; the 1x index
-  // map 0.6 MB of the 5.2 MB of prediction at 320x240; fusion scratch 5.0 MB; spatial order 9.0 MB.
+  // map (24 bytes per cell) 1.8 MB of the 6.4 MB of prediction at 320x240; fusion scratch 1.1 MB;
+  // spatial order 9.0 MB.
   EXPECT_NEAR(double(plan->bytes_of("surfel pool")), 60e6, 1e3);
   EXPECT_EQ(plan->bytes_of("source frame"), 640u * 480 * 8);
-  EXPECT_NEAR(double(plan->bytes_of("model prediction")), 5.2e6, 0.1e6);
-  EXPECT_NEAR(double(plan->bytes_of("surfel fusion scratch")), 5.0e6, 0.1e6);
+  EXPECT_NEAR(double(plan->bytes_of("model prediction")), 6.4e6, 0.1e6);
+  EXPECT_NEAR(double(plan->bytes_of("surfel fusion scratch")), 1.07e6, 0.01e6);
   EXPECT_NEAR(double(plan->bytes_of("surfel spatial order")), 9.0e6, 0.1e6);
   EXPECT_NEAR(double(plan->bytes_of("map.ply class columns")), 5e6, 1);
   EXPECT_TRUE(plan->within_budget()) << plan->table();
   // mapping.index_map_scale 4 (ElasticFusion's): the index map is sixteen times larger (1280x960 cells
-  // instead of 320x240), and so is fusion's list of seen surfels.
+  // instead of 320x240), and so are fusion's marks and its list of seen surfels.
   {
     RunConfig fine = c;
     fine.index_map_scale = 4;
     auto p4 = plan_memory(fine);
     ASSERT_TRUE(p4.ok()) << to_string(p4.error());
-    EXPECT_EQ(p4->bytes_of("model prediction") - plan->bytes_of("model prediction"), (1280u * 960 - 320u * 240) * 8);
-    EXPECT_NEAR(double(p4->bytes_of("surfel fusion scratch")), 8.7e6, 0.1e6);
+    EXPECT_EQ(p4->bytes_of("model prediction") - plan->bytes_of("model prediction"), (1280u * 960 - 320u * 240) * 24);
+    EXPECT_NEAR(double(p4->bytes_of("surfel fusion scratch")), 5.9e6, 0.1e6);
   }
 
   // Geometry only: no segmenter parts, no model file needed.

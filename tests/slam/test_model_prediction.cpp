@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <random>
 #include <string>
@@ -168,7 +169,7 @@ TEST(ModelPredict, CreateRejectsBadSizesAndLevels) {
 }
 
 // bytes() (and the memory plan's bytes_for()) is what create() allocated: every level's maps, the
-// index map, the winner and colour images, plus the three rows of rays and scratch (private).
+// index map (ids, depths, surfaces), the winner and colour images, plus the three rows of rays and scratch (private).
 TEST(ModelPredict, BytesAreWhatCreateAllocated) {
   for (int scale : {1, 2, 4}) {
     PredictionOptions o;
@@ -181,10 +182,59 @@ TEST(ModelPredict, BytesAreWhatCreateAllocated) {
       sum += b(lv.depth.view()) + b(lv.vertex.view()) + b(lv.normal.view()) + b(lv.intensity.view()) +
              b(lv.grad_x.view()) + b(lv.grad_y.view());
     }
-    sum += b(p.index_map().id.view()) + b(p.index_map().depth.view()) + b(p.surfel_ids()) + b(p.color());
+    sum += b(p.index_map().id.view()) + b(p.index_map().depth.view()) + b(p.index_map().surface.view()) +
+           b(p.surfel_ids()) + b(p.color());
     sum += (2 * static_cast<std::size_t>(small_camera().width) + small_camera().height) * sizeof(float);
     EXPECT_EQ(p.bytes(), sum) << "scale " << scale;
     EXPECT_EQ(ModelPredictor::bytes_for(small_camera().width, small_camera().height, 3, o), sum) << "scale " << scale;
+  }
+}
+
+// Fusion gates on the index map's copy of each surfel's normal and confidence (slam/index_map.h):
+// with several surfels competing for most index pixels (random depths, normals and confidences),
+// every occupied pixel holds exactly what the pool has for the surfel whose id it holds, the same as
+// copy_surfaces_from_pool gives, at each scale.
+TEST(ModelPredict, IndexMapSurfacesAreThoseOfItsSurfels) {
+  const Intrinsics K = small_camera();
+  const SE3 T_wc = some_pose();
+  SurfelPool pool = make_pool();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int i = 0; i < 20000; ++i) {
+    const double z = 0.5 + 3.0 * unit(rng);
+    const Eigen::Vector3d p_c(((K.width - 1) * unit(rng) - K.cx) / K.fx * z, ((K.height - 1) * unit(rng) - K.cy) / K.fy * z, z);
+    const Eigen::Vector3d n_c = Eigen::Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, -1.0).normalized();
+    const int64_t id = add_cam(pool, T_wc, p_c, n_c, 0.005, static_cast<float>(30.0 * unit(rng)));
+    ASSERT_GE(id, 0);
+  }
+  for (int scale : {1, 2, 4}) {
+    PredictionOptions o;
+    o.index_map_scale = scale;
+    auto p = make_predictor(K, 3, o);
+    ASSERT_TRUE(p.predict(pool, T_wc, 0).ok());
+    const IndexMap& im = p.index_map();
+    IndexMap copy;
+    copy.id.allocate(im.id.width(), im.id.height());
+    copy.id.copy_from(im.id.view());
+    copy_surfaces_from_pool(pool, copy);
+    int64_t occupied = 0;
+    for (int y = 0; y < im.id.height(); ++y)
+      for (int x = 0; x < im.id.width(); ++x) {
+        const int32_t id = im.id(x, y);
+        if (id < 0) continue;
+        ++occupied;
+        const IndexSurface& s = im.surface(x, y);
+        ASSERT_EQ(s.nx, pool.nx()[id]) << x << "," << y << " scale " << scale;
+        ASSERT_EQ(s.ny, pool.ny()[id]);
+        ASSERT_EQ(s.nz, pool.nz()[id]);
+        ASSERT_EQ(s.confidence, pool.confidence()[id]);
+        ASSERT_EQ(std::memcmp(&s, &copy.surface(x, y), sizeof(IndexSurface)), 0);
+      }
+    // Most pixels were contested: far fewer occupied pixels than surfels at scale 1.
+    if (scale == 1) {
+      EXPECT_LT(occupied, pool.size() / 2);
+    }
+    EXPECT_GT(occupied, 1000);
   }
 }
 

@@ -56,6 +56,7 @@ IndexMap splat_index(const SurfelPool& pool, const Intrinsics& K, int scale, con
       m.depth(u, v) = p.z();
     }
   }
+  copy_surfaces_from_pool(pool, m);
   return m;
 }
 
@@ -220,6 +221,12 @@ TEST(SurfelFusion, RejectsMismatchedInputs) {
   // An index map of another scale.
   IndexMap wrong = splat_index(pool, K, 2, SE3());
   EXPECT_FALSE(fusion.fuse(pre, f.color.view(), SE3(), wrong, 0, &pool, &st).ok());
+  // An index map without the surfaces fusion gates on (made by hand and not given them).
+  IndexMap bare = splat_index(pool, K, 4, SE3());
+  bare.surface = Image<IndexSurface>();
+  const Status no_surfaces = fusion.fuse(pre, f.color.view(), SE3(), bare, 0, &pool, &st);
+  ASSERT_FALSE(no_surfaces.ok());
+  EXPECT_NE(to_string(no_surfaces.error()).find("surfaces"), std::string::npos) << to_string(no_surfaces.error());
   EXPECT_EQ(pool.size(), 0);
   // Colour may be absent: new surfels are mid grey.
   ASSERT_TRUE(fusion.fuse(pre, ImageView<const Rgb8>(), SE3(), none, 0, &pool, &st).ok());
@@ -705,6 +712,52 @@ TEST(SurfelFusion, SeenUnstableSurfelsExpireToo) {
   EXPECT_EQ(st.removed_stale, 1);
   EXPECT_EQ(st.fused_pixels, 2);
   EXPECT_EQ(c.pool.confidence()[0], 12.0f + expected_weight(c.K, 100, 80));  // the stable one stays in slot 0
+}
+
+TEST(SurfelFusion, ASeenSurfelInTheSweepIsDecidedOnce) {
+  // The lifetime sweep (on by default, here over the whole pool) passes over the surfels that the
+  // association saw, which the first loop of clean() decided already: one removal, counted once.
+  OneSurfelCase c;
+  add_on_ray(c.pool, c.K, 160, 120, 1.0f, Eigen::Vector3f(0, 0, -1), c.r_m, 1.0f, 0, 0);
+  add_on_ray(c.pool, c.K, 100, 80, 1.0f, Eigen::Vector3f(0, 0, -1), c.r_m, 12.0f, 0, 0);
+  FusionStats st;
+  const IndexMap index = splat_index(c.pool, c.K, 4, SE3());
+  ASSERT_TRUE(c.fusion.fuse(c.pre, c.frame.color.view(), SE3(), index, 61, &c.pool, &st).ok());
+  EXPECT_EQ(st.removed_stale, 1);
+  EXPECT_EQ(st.fused_pixels, 2);
+  EXPECT_EQ(c.pool.size(), 1 + st.new_surfels);
+  EXPECT_EQ(c.pool.confidence()[0], 12.0f + expected_weight(c.K, 100, 80));
+}
+
+TEST(SurfelFusion, AnIdListedTwiceInAnIndexMapIsRemovedOnce) {
+  // The predictor puts each surfel into one index pixel; a map made otherwise may list one twice.
+  // A floating unstable surfel seen through from two index pixels is still removed once, and the
+  // surfel that swap-removal moves is kept.
+  const Intrinsics K = ef::test::kinect_320x240();
+  const Frame wall = flat_frame(K, 2.0, Rgb8{50, 60, 70});
+  Preprocessor pre = make_pre(K, wall);
+  SurfelPool pool = make_pool(100'000);
+  SurfelFusion fusion = make_fusion(K, 100'000);
+  const Eigen::Vector3f n(0, 0, -1);
+  add_on_ray(pool, K, 200, 150, 1.0f, n, 0.005f, 1.0f, pack_rgb(2, 2, 2), 0);  // unstable, floating
+  add_on_ray(pool, K, 60, 60, 3.0f, n, 0.005f, 1.0f, pack_rgb(3, 3, 3), 0);    // behind the wall
+  IndexMap index = splat_index(pool, K, 4, SE3());
+  int copies = 0;
+  for (int y = 0; y < index.id.height() && copies == 0; ++y)
+    for (int x = 0; x < index.id.width(); ++x)
+      if (index.id(x, y) == 0) {
+        index.id(x + 4, y) = 0;  // the working pixel to the right sees it too
+        index.depth(x + 4, y) = index.depth(x, y);
+        index.surface(x + 4, y) = index.surface(x, y);
+        copies = 1;
+        break;
+      }
+  ASSERT_EQ(copies, 1);
+  FusionStats st;
+  ASSERT_TRUE(fusion.fuse(pre, wall.color.view(), SE3(), index, 1, &pool, &st).ok());
+  EXPECT_EQ(pool.size(), 1 + st.new_surfels);
+  EXPECT_EQ(pool.color()[0], pack_rgb(3, 3, 3));
+  for (int64_t i = 0; i < pool.size(); ++i) EXPECT_NE(pool.color()[i], pack_rgb(2, 2, 2));
 }
 
 TEST(SurfelFusion, FreeSpaceViolationRemovesUnstableAndDemotesStable) {
