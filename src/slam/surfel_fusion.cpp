@@ -128,8 +128,9 @@ std::size_t SurfelFusion::bytes_for(int width, int height, int index_map_scale, 
   const int64_t seen_entries =
       seen_list_capacity(pixels, index_map_scale, pool_capacity) + options.lifetime_sweep_per_frame;
   // cell_state_ (a byte per index pixel), seen_ (int32 per entry), unmatched_ (int32) and weight_
-  // (float) per pixel, sweep_decided_ (a bit per sweep id, in 64-bit words).
-  return static_cast<std::size_t>(cells + (seen_entries + 2 * pixels) * 4 +
+  // (float) per pixel, sweep_decided_ (a bit per sweep id, in 64-bit words), row_ (kRowFields floats
+  // per pixel of a row).
+  return static_cast<std::size_t>(cells + (seen_entries + 2 * pixels + int64_t{kRowFields} * width) * 4 +
                                   sweep_words(options.lifetime_sweep_per_frame) * 8);
 }
 
@@ -159,6 +160,7 @@ Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_m
   f.cell_state_.reset(new uint8_t[static_cast<std::size_t>(f.cells_)]());
   f.sweep_decided_.reset(new uint64_t[static_cast<std::size_t>(sweep_words(options.lifetime_sweep_per_frame))]());
   f.seen_.reset(new int32_t[static_cast<std::size_t>(seen_entries)]);
+  f.row_.reset(new float[static_cast<std::size_t>(kRowFields) * static_cast<std::size_t>(working.width)]());
   f.unmatched_.reset(new int32_t[static_cast<std::size_t>(pixels)]);
   f.weight_.allocate(working.width, working.height);
   f.bytes_ = bytes_for(working.width, working.height, index_map_scale, pool_capacity, options);
@@ -191,33 +193,173 @@ void SurfelFusion::see(int32_t cell) {
 // ---------------------------------------------------------------------------------------------
 // Per pixel
 
+// The measurement of one pixel (x, y), written once for make_pixel() and the row pass of
+// associate(): whether it is valid (depth d > 0 and a valid level-0 normal n0), its vertex and the
+// normal fusion uses, in the current camera. With coarse normals (kCoarse), n1 and cd are the normal
+// and depth of the pixel's 2x2 block on the coarse level (zero where the block lies outside that
+// level), and the normal is n1 when cd says the block is the same surface, else n0. Every value is
+// computed whatever the validity and chosen by selects, so that a loop over a row has no branch; for
+// an invalid pixel the vertex and normal are meaningless.
+template <bool kCoarse>
+inline bool SurfelFusion::measure(int x, int y, float d, const float* n0, const float* n1, float cd,
+                                  Eigen::Vector3f* v, Eigen::Vector3f* n_c) const {
+  const bool valid = (d > 0.0f) & ((n0[0] != 0.0f) | (n0[1] != 0.0f) | (n0[2] != 0.0f));  // valid_normal
+  *v = K_.backproject(static_cast<float>(x), static_cast<float>(y), d);
+  float nx = n0[0], ny = n0[1], nz = n0[2];
+  if (kCoarse) {
+    const bool take = ((n1[0] != 0.0f) | (n1[1] != 0.0f) | (n1[2] != 0.0f)) & (std::fabs(cd - d) <= depth_gate(d));
+    nx = take ? n1[0] : nx;
+    ny = take ? n1[1] : ny;
+    nz = take ? n1[2] : nz;
+  }
+  *n_c = Eigen::Vector3f(nx, ny, nz);
+  return valid;
+}
+
 bool SurfelFusion::make_pixel(const FrameContext& fc, int x, int y, PixelContext* px) const {
   const float d = fc.depth(x, y);
-  if (!(d > 0.0f)) return false;
-  const Eigen::Vector3f& n0 = fc.normal(x, y);
-  if (!valid_normal(n0)) return false;
-  px->x = x;
-  px->y = y;
-  px->v = K_.backproject(static_cast<float>(x), static_cast<float>(y), d);
-  px->n_c = n0;
-  if (!fc.coarse_normal.empty()) {
-    // The coarse normal of the 2x2 block, when the block's depth says it is the same surface.
+  const float n0[3] = {fc.normal(x, y).x(), fc.normal(x, y).y(), fc.normal(x, y).z()};
+  float n1[3] = {0.0f, 0.0f, 0.0f}, cd = 0.0f;
+  bool valid;
+  if (fc.coarse_normal.empty()) {
+    valid = measure<false>(x, y, d, n0, n1, cd, &px->v, &px->n_c);
+  } else {
     const int cx = x >> 1, cy = y >> 1;
     if (cx < fc.coarse_normal.width && cy < fc.coarse_normal.height) {
-      const Eigen::Vector3f& n1 = fc.coarse_normal(cx, cy);
-      if (valid_normal(n1) && std::fabs(fc.coarse_depth(cx, cy) - d) <= depth_gate(d)) px->n_c = n1;
+      const Eigen::Vector3f& c = fc.coarse_normal(cx, cy);
+      n1[0] = c.x();
+      n1[1] = c.y();
+      n1[2] = c.z();
+      cd = fc.coarse_depth(cx, cy);
     }
+    valid = measure<true>(x, y, d, n0, n1, cd, &px->v, &px->n_c);
   }
+  if (!valid) return false;
+  px->x = x;
+  px->y = y;
   px->n_w = fc.R_wc * px->n_c;
   return true;
 }
 
+// Every pixel of row y measured (measure()) and moved into the index map's camera, into the row
+// buffers: the per-pixel arithmetic of association done for a whole row in one branch-free loop,
+// which the compiler vectorises.
+void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
+  if (fc.coarse_normal.empty()) {
+    prepare_row<false>(fc, y);
+    return;
+  }
+  // The coarse normal and depth of each pixel's 2x2 block, spread to the pixels (zero outside the
+  // coarse level), so that the row pass reads them consecutively.
+  const int w = K_.width;
+  float* __restrict c1x = row_field(kRowC1x);
+  float* __restrict c1y = row_field(kRowC1y);
+  float* __restrict c1z = row_field(kRowC1z);
+  float* __restrict cdep = row_field(kRowCd);
+  const int cy = y >> 1;
+  const int inside = cy < fc.coarse_normal.height ? std::min(fc.coarse_normal.width, (w + 1) / 2) : 0;
+  for (int cx = 0; cx < inside; ++cx) {
+    const Eigen::Vector3f& c = fc.coarse_normal(cx, cy);
+    const float cd = fc.coarse_depth(cx, cy);
+    for (int x = 2 * cx; x < std::min(2 * cx + 2, w); ++x) {
+      c1x[x] = c.x();
+      c1y[x] = c.y();
+      c1z[x] = c.z();
+      cdep[x] = cd;
+    }
+  }
+  for (int x = 2 * inside; x < w; ++x) c1x[x] = c1y[x] = c1z[x] = cdep[x] = 0.0f;
+  prepare_row<true>(fc, y);
+}
+
+template <bool kCoarse>
+void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
+  const int w = K_.width;
+  const float* __restrict depth = fc.depth.row(y);
+  const float* __restrict normal = fc.normal.row(y)->data();  // x, y, z of each pixel
+  const float* __restrict c1x = row_field(kRowC1x);
+  const float* __restrict c1y = row_field(kRowC1y);
+  const float* __restrict c1z = row_field(kRowC1z);
+  const float* __restrict cdep = row_field(kRowCd);
+  float* __restrict valid_out = row_field(kRowValid);
+  float* __restrict vx = row_field(kRowVx);
+  float* __restrict vy = row_field(kRowVy);
+  float* __restrict vz = row_field(kRowVz);
+  float* __restrict ncx = row_field(kRowNcx);
+  float* __restrict ncy = row_field(kRowNcy);
+  float* __restrict ncz = row_field(kRowNcz);
+  float* __restrict nwx = row_field(kRowNwx);
+  float* __restrict nwy = row_field(kRowNwy);
+  float* __restrict nwz = row_field(kRowNwz);
+  float* __restrict pix = row_field(kRowPix);
+  float* __restrict piy = row_field(kRowPiy);
+  float* __restrict piz = row_field(kRowPiz);
+  float* __restrict xi = row_field(kRowXi);
+  float* __restrict yi = row_field(kRowYi);
+  float* __restrict gate = row_field(kRowGate);
+  float* __restrict pwx = row_field(kRowPwx);
+  float* __restrict pwy = row_field(kRowPwy);
+  float* __restrict pwz = row_field(kRowPwz);
+  float* __restrict rad = row_field(kRowRadius);
+  const Eigen::Matrix3f R_wc = fc.R_wc, R_ic = fc.R_ic;
+  const Eigen::Vector3f t_ic = fc.t_ic;
+  const Intrinsics Ki = fc.Ki;
+  // The row buffers are this object's own and never alias the frame's images.
+#pragma GCC ivdep
+  for (int x = 0; x < w; ++x) {
+    Eigen::Vector3f v, n_c;
+    const float n1[3] = {kCoarse ? c1x[x] : 0.0f, kCoarse ? c1y[x] : 0.0f, kCoarse ? c1z[x] : 0.0f};
+    const bool valid = measure<kCoarse>(x, y, depth[x], normal + 3 * x, n1, kCoarse ? cdep[x] : 0.0f, &v, &n_c);
+    const Eigen::Vector3f n_w = R_wc * n_c;
+    const Eigen::Vector3f p_i = R_ic * v + t_ic;
+    const float inv_z = 1.0f / p_i.z();  // used only where p_i.z() > 0
+    Eigen::Vector3f p_w;
+    float radius;
+    sample_geometry(fc, v, n_c, &p_w, &radius);
+    valid_out[x] = valid ? 1.0f : 0.0f;
+    vx[x] = v.x();
+    vy[x] = v.y();
+    vz[x] = v.z();
+    ncx[x] = n_c.x();
+    ncy[x] = n_c.y();
+    ncz[x] = n_c.z();
+    nwx[x] = n_w.x();
+    nwy[x] = n_w.y();
+    nwz[x] = n_w.z();
+    pix[x] = p_i.x();
+    piy[x] = p_i.y();
+    piz[x] = p_i.z();
+    xi[x] = Ki.fx * p_i.x() * inv_z + Ki.cx;
+    yi[x] = Ki.fy * p_i.y() * inv_z + Ki.cy;
+    gate[x] = depth_gate(p_i.z());
+    pwx[x] = p_w.x();
+    pwy[x] = p_w.y();
+    pwz[x] = p_w.z();
+    rad[x] = radius;
+  }
+}
+
+// The world position and disc radius of a measurement (vertex v, normal n_c, current camera); written
+// once for sample_at() and the row pass.
+inline void SurfelFusion::sample_geometry(const FrameContext& fc, const Eigen::Vector3f& v, const Eigen::Vector3f& n_c,
+                                          Eigen::Vector3f* p, float* radius) const {
+  *p = fc.R_wc * v + fc.t_wc;
+  const float cos_abs = std::fabs(n_c.dot(v)) / std::sqrt(v.squaredNorm());  // (Eigen's norm(), as a plain sqrt)
+  *radius = fusion_math::surfel_radius_m(v.z(), cos_abs, focal_, options_.max_radius_incidence_factor);
+}
+
 fusion_math::Sample SurfelFusion::sample_at(const FrameContext& fc, const PixelContext& px) const {
+  Eigen::Vector3f p;
+  float radius;
+  sample_geometry(fc, px.v, px.n_c, &p, &radius);
+  return sample_from(px, p, radius);
+}
+
+fusion_math::Sample SurfelFusion::sample_from(const PixelContext& px, const Eigen::Vector3f& p, float radius) const {
   fusion_math::Sample s;
-  s.p = fc.R_wc * px.v + fc.t_wc;
+  s.p = p;
   s.n = px.n_w;
-  const float cos_abs = std::fabs(px.n_c.dot(px.v)) / px.v.norm();
-  s.radius = fusion_math::surfel_radius_m(px.v.z(), cos_abs, focal_, options_.max_radius_incidence_factor);
+  s.radius = radius;
   if (color_.empty()) {
     s.r = s.g = s.b = kGreyLevel;
   } else {
@@ -421,21 +563,28 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
   const int w = K_.width, h = K_.height;
   PixelContext px;
   WindowScan ws;
+  const float* r = row_.get();
+  const auto field = [&](int f, int x) { return r[f * w + x]; };
   for (int y = 0; y < h; ++y) {
+    prepare_row(fc, y);
     for (int x = 0; x < w; ++x) {
-      if (!make_pixel(fc, x, y, &px)) continue;
+      if (field(kRowValid, x) == 0.0f) continue;
       ++st.valid_pixels;
       const int32_t pixel_index = y * w + x;
-      px.p_i = fc.R_ic * px.v + fc.t_ic;
+      px.x = x;
+      px.y = y;
+      px.v = Eigen::Vector3f(field(kRowVx, x), field(kRowVy, x), field(kRowVz, x));
+      px.n_c = Eigen::Vector3f(field(kRowNcx, x), field(kRowNcy, x), field(kRowNcz, x));
+      px.n_w = Eigen::Vector3f(field(kRowNwx, x), field(kRowNwy, x), field(kRowNwz, x));
+      px.p_i = Eigen::Vector3f(field(kRowPix, x), field(kRowPiy, x), field(kRowPiz, x));
       if (!fc.has_index || !(px.p_i.z() > 0.0f)) {
         unmatched_[unmatched_count_++] = pixel_index;
         ++st.unmatched_empty;
         continue;
       }
-      const float inv_z = 1.0f / px.p_i.z();
-      px.xi = fc.Ki.fx * px.p_i.x() * inv_z + fc.Ki.cx;
-      px.yi = fc.Ki.fy * px.p_i.y() * inv_z + fc.Ki.cy;
-      px.gate = depth_gate(px.p_i.z());
+      px.xi = field(kRowXi, x);
+      px.yi = field(kRowYi, x);
+      px.gate = field(kRowGate, x);
       ws.best = -1;
       ws.n_gated = ws.n_candidates = ws.n_depth_ok = 0;
       scan_window(fc, index, pool, px, &ws, st);
@@ -449,7 +598,8 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
         continue;
       }
       const WindowScan::Gated& best = ws.gated[ws.best];
-      const fusion_math::Sample sample = sample_at(fc, px);
+      const fusion_math::Sample sample =
+          sample_from(px, Eigen::Vector3f(field(kRowPwx, x), field(kRowPwy, x), field(kRowPwz, x)), field(kRowRadius, x));
       if (!fusion_math::fuse_sample(pool, best.id, sample, options_.max_radius_growth, frame_index))
         ++st.confirmed_only;
       set_flag(best.cell, kUpdated);

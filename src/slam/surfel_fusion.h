@@ -58,6 +58,7 @@
 // Threads: one SurfelFusion per mapping thread; fuse() is not reentrant.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -209,8 +210,11 @@ inline float depth_gate_m(float z, float base_m, float quadratic) { return base_
 
 // Disc radius (metres) of a measurement at depth z (metres) seen with |cos(incidence)| = cos_abs,
 // focal length f (pixels): sqrt(2) z / f / cos, with 1/cos capped at max_factor.
+// Written as one division of a clamped value, not a division in one arm of a select, so that a loop
+// over pixels has no branch (GCC sinks such a division into a branch and then does not vectorise);
+// 1 / (1 / max_factor) is max_factor exactly when it is a power of two, as the default 4.
 inline float surfel_radius_m(float z, float cos_abs, float f, float max_factor) {
-  const float inv_cos = cos_abs * max_factor > 1.0f ? 1.0f / cos_abs : max_factor;
+  const float inv_cos = 1.0f / std::max(cos_abs, 1.0f / max_factor);
   return 1.41421356f * z / f * inv_cos;
 }
 
@@ -346,7 +350,13 @@ class SurfelFusion {
   // Marks the surfel of index pixel `cell` seen (and lists the pixel) the first time this frame.
   void see(int32_t cell);
 
+  template <bool kCoarse>
+  bool measure(int x, int y, float d, const float* n0, const float* n1, float cd, Eigen::Vector3f* v,
+               Eigen::Vector3f* n_c) const;
   bool make_pixel(const FrameContext& fc, int x, int y, PixelContext* px) const;
+  void prepare_row(const FrameContext& fc, int y);
+  template <bool kCoarse>
+  void prepare_row(const FrameContext& fc, int y);
   void associate(const FrameContext& fc, const IndexMap& index, SurfelPool& pool, int32_t frame_index,
                  FusionStats& st);
   void visit_cell(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool, const PixelContext& px, int bx,
@@ -356,7 +366,11 @@ class SurfelFusion {
   void merge_duplicates(SurfelPool& pool, const WindowScan& ws, float z, FusionStats& st);
   void clean(const IndexMap& index, SurfelPool& pool, int32_t frame_index, FusionStats& st);
   void create_new(const FrameContext& fc, SurfelPool& pool, int32_t frame_index, FusionStats& st);
+  void sample_geometry(const FrameContext& fc, const Eigen::Vector3f& v, const Eigen::Vector3f& n_c, Eigen::Vector3f* p,
+                       float* radius) const;
   fusion_math::Sample sample_at(const FrameContext& fc, const PixelContext& px) const;
+  // The sample of pixel px at world position p with that radius: its normal, colour and weight.
+  fusion_math::Sample sample_from(const PixelContext& px, const Eigen::Vector3f& p, float radius) const;
   bool mergeable(const SurfelPool& pool, int64_t a, int64_t b, float z) const;
   // The depth gate at depth z (metres), metres.
   float depth_gate(float z) const {
@@ -377,6 +391,18 @@ class SurfelFusion {
   int64_t seen_capacity_ = 0, seen_count_ = 0;
   // One bit per id of this frame's lifetime sweep: set when the seen surfels already decided it.
   std::unique_ptr<uint64_t[]> sweep_decided_;
+  // One row of measurements (prepare_row), kRowFields arrays of width floats: validity (1 or 0), the
+  // vertex, camera and world normals, the vertex in the index map's camera, its index-grid projection
+  // and depth gate, the world position and disc radius of its sample, and the coarse level's normal
+  // and depth spread to the pixels.
+  enum RowField : int {
+    kRowValid, kRowVx, kRowVy, kRowVz, kRowNcx, kRowNcy, kRowNcz, kRowNwx, kRowNwy, kRowNwz,
+    kRowPix, kRowPiy, kRowPiz, kRowXi, kRowYi, kRowGate, kRowPwx, kRowPwy, kRowPwz, kRowRadius,
+    kRowC1x, kRowC1y, kRowC1z, kRowCd,  // input: the coarse normal and depth of each pixel's block
+    kRowFields
+  };
+  std::unique_ptr<float[]> row_;
+  float* row_field(int field) const { return row_.get() + static_cast<std::size_t>(field) * K_.width; }
   std::unique_ptr<int32_t[]> unmatched_;   // pixel indices y * width + x of unmatched valid pixels
   int64_t unmatched_count_ = 0;
   Image<float> weight_;                    // confidence weight per working pixel
