@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 
 namespace ef::slam {
@@ -211,16 +212,39 @@ void Preprocessor::bilateral() {
 // (V(x+1, y) - V(x-1, y))) (KinectFusion section 3.2, with central instead of forward differences,
 // so the normal belongs to the pixel's own centre). That cross product points toward the camera for
 // a surface seen from its front; it is flipped if noise makes n . v > 0.
+namespace {
+
+// `value` where `keep`, else +0.0f, by a bit mask: GCC turns a select whose arm alone uses a
+// division into a branch around the stores, which it does not vectorise; the mask form it does.
+inline float keep_if(bool keep, float value) {
+  uint32_t bits;
+  std::memcpy(&bits, &value, sizeof bits);
+  bits &= 0u - static_cast<uint32_t>(keep);
+  float out;
+  std::memcpy(&out, &bits, sizeof out);
+  return out;
+}
+
+}  // namespace
+
 void Preprocessor::vertex_normal(int l) {
   PyramidLevel& lv = levels_[l];
   const Intrinsics& K = lv.intrinsics;
   const int w = K.width, h = K.height;
   const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
+  // Both loops are branch-free over a row (every value computed, then selects), read and write the
+  // vectors component by component, and so are vectorised by the compiler; each lane does exactly
+  // the operations of the one-pixel-at-a-time form.
   for (int y = 0; y < h; ++y) {
     const float* d = lv.depth.data() + static_cast<std::size_t>(y) * w;
-    Eigen::Vector3f* v = lv.vertex.data() + static_cast<std::size_t>(y) * w;
-    for (int x = 0; x < w; ++x)
-      v[x] = d[x] > 0.0f ? K.backproject(static_cast<float>(x), static_cast<float>(y), d[x]) : zero;
+    float* v = lv.vertex.data()[static_cast<std::size_t>(y) * w].data();  // x, y, z per pixel
+    for (int x = 0; x < w; ++x) {
+      const Eigen::Vector3f p = K.backproject(static_cast<float>(x), static_cast<float>(y), d[x]);
+      const bool valid = d[x] > 0.0f;
+      v[3 * x] = keep_if(valid, p.x());
+      v[3 * x + 1] = keep_if(valid, p.y());
+      v[3 * x + 2] = keep_if(valid, p.z());
+    }
   }
   // Largest depth step per unit depth between horizontal / vertical neighbours: 1 / (f tan(angle)).
   const float inv_tan = 1.0f / std::tan(options_.normal_min_grazing_deg * (kPi / 180.0f));
@@ -231,33 +255,31 @@ void Preprocessor::vertex_normal(int l) {
       for (int x = 0; x < w; ++x) n[x] = zero;
       continue;
     }
-    const Eigen::Vector3f* up = lv.vertex.data() + static_cast<std::size_t>(y - 1) * w;
-    const Eigen::Vector3f* mid = up + w;
-    const Eigen::Vector3f* down = mid + w;
+    const float* up = lv.vertex.data()[static_cast<std::size_t>(y - 1) * w].data();
+    const float* mid = up + 3 * w;
+    const float* down = mid + 3 * w;
+    float* out = n->data();
     n[0] = n[w - 1] = zero;
     for (int x = 1; x < w - 1; ++x) {
-      const float zc = mid[x].z();
-      const float zl = mid[x - 1].z(), zr = mid[x + 1].z(), zu = up[x].z(), zd = down[x].z();
+      const float zc = mid[3 * x + 2];
+      const float zl = mid[3 * x - 1], zr = mid[3 * x + 5], zu = up[3 * x + 2], zd = down[3 * x + 2];
       const float max_dx = zc * step_x, max_dy = zc * step_y;
       // Invalid neighbours have z = 0, which also fails the step test (zc > 0 > max step is false
       // only when zc itself is 0, caught by the first condition).
-      if (!(zc > 0.0f) || !(std::fabs(zl - zc) <= max_dx) || !(std::fabs(zr - zc) <= max_dx) ||
-          !(std::fabs(zu - zc) <= max_dy) || !(std::fabs(zd - zc) <= max_dy) || zl <= 0.0f || zr <= 0.0f ||
-          zu <= 0.0f || zd <= 0.0f) {
-        n[x] = zero;
-        continue;
-      }
-      const Eigen::Vector3f dx = mid[x + 1] - mid[x - 1];
-      const Eigen::Vector3f dy = down[x] - up[x];
+      const bool steps_ok = (zc > 0.0f) & (std::fabs(zl - zc) <= max_dx) & (std::fabs(zr - zc) <= max_dx) &
+                            (std::fabs(zu - zc) <= max_dy) & (std::fabs(zd - zc) <= max_dy) & (zl > 0.0f) &
+                            (zr > 0.0f) & (zu > 0.0f) & (zd > 0.0f);
+      const Eigen::Vector3f dx(mid[3 * x + 3] - mid[3 * x - 3], mid[3 * x + 4] - mid[3 * x - 2], zr - zl);
+      const Eigen::Vector3f dy(down[3 * x] - up[3 * x], down[3 * x + 1] - up[3 * x + 1], zd - zu);
       Eigen::Vector3f c = dy.cross(dx);
       const float len2 = c.squaredNorm();
-      if (!(len2 > 0.0f)) {
-        n[x] = zero;
-        continue;
-      }
-      c *= 1.0f / std::sqrt(len2);
-      if (c.dot(mid[x]) > 0.0f) c = -c;
-      n[x] = c;
+      const bool ok = steps_ok & (len2 > 0.0f);
+      c *= 1.0f / std::sqrt(len2);  // meaningless (inf, NaN) where !ok, then not taken
+      const Eigen::Vector3f m(mid[3 * x], mid[3 * x + 1], zc);
+      const float sign = c.dot(m) > 0.0f ? -1.0f : 1.0f;  // toward the camera
+      out[3 * x] = keep_if(ok, sign * c.x());
+      out[3 * x + 1] = keep_if(ok, sign * c.y());
+      out[3 * x + 2] = keep_if(ok, sign * c.z());
     }
   }
 }
