@@ -257,18 +257,18 @@ void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
   float* __restrict c1z = row_field(kRowC1z);
   float* __restrict cdep = row_field(kRowCd);
   const int cy = y >> 1;
-  const int inside = cy < fc.coarse_normal.height ? std::min(fc.coarse_normal.width, (w + 1) / 2) : 0;
-  for (int cx = 0; cx < inside; ++cx) {
-    const Eigen::Vector3f& c = fc.coarse_normal(cx, cy);
-    const float cd = fc.coarse_depth(cx, cy);
-    for (int x = 2 * cx; x < std::min(2 * cx + 2, w); ++x) {
-      c1x[x] = c.x();
-      c1y[x] = c.y();
-      c1z[x] = c.z();
-      cdep[x] = cd;
-    }
+  // Pixels 0 .. covered - 1 have their block on the coarse level.
+  const int covered = cy < fc.coarse_normal.height ? std::min(w, 2 * fc.coarse_normal.width) : 0;
+  const float* cn = fc.coarse_normal.row(std::min(cy, fc.coarse_normal.height - 1))->data();
+  const float* cd = fc.coarse_depth.row(std::min(cy, fc.coarse_depth.height - 1));
+  for (int x = 0; x < covered; ++x) {
+    const int cx = x >> 1;
+    c1x[x] = cn[3 * cx];
+    c1y[x] = cn[3 * cx + 1];
+    c1z[x] = cn[3 * cx + 2];
+    cdep[x] = cd[cx];
   }
-  for (int x = 2 * inside; x < w; ++x) c1x[x] = c1y[x] = c1z[x] = cdep[x] = 0.0f;
+  for (int x = covered; x < w; ++x) c1x[x] = c1y[x] = c1z[x] = cdep[x] = 0.0f;
   prepare_row<true>(fc, y);
 }
 
