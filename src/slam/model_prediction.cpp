@@ -468,7 +468,11 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose) {
       }
     }
     // (b) Tracking maps: discs of the candidates, set up for the whole block, then rasterised.
-    for (int i = 0; i < n; ++i) candidates += b.candidate[i];
+    int32_t block_candidates = 0;
+    for (int i = 0; i < n; ++i) block_candidates += b.candidate[i];
+    candidates += block_candidates;
+    // The pool is in spatial order (slam/spatial_order.h), so many blocks lie wholly outside the view.
+    if (block_candidates == 0) continue;
     setup_discs(b, pool.nx() + begin, pool.ny() + begin, pool.nz() + begin, pool.radius() + begin, n, pose.r,
                 disc_setup, discs);
     for (int i = 0; i < n; ++i) {
