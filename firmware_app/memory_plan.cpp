@@ -184,7 +184,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
             " predicted levels");
   }
   add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, pred.index_map_scale, config.surfel_capacity, fus),
-      "1 byte per index cell + 4 bytes x (min(capacity, index cells) + sweep + 2 x working pixels)");
+      "1 byte per index cell + 4 bytes x (min(capacity, index cells) + sweep + 2 x working pixels + 24 x working width)");
   const int stages = kRunStages + (config.labels ? kLabelStages : 0);
   add("stage statistics", static_cast<size_t>(stages + 1) * kStageSamples * sizeof(double),
       std::to_string(stages) + " stages + 1 scratch x " + std::to_string(kStageSamples) + " samples x 8 bytes");

@@ -53,8 +53,9 @@
 // Memory: create() allocates everything, bytes(): 1 per index pixel (the state of the current
 // frame), 4 per entry of the list of seen surfels (min(capacity, index pixels) plus
 // lifetime_sweep_per_frame), one bit per id of the lifetime sweep, 8 per working pixel (unmatched
-// pixels, confidence weights); 1.1 MB at 320x240 and index map scale 1 with the default sweep,
-// whatever the pool's capacity. fuse() never touches the heap.
+// pixels, confidence weights), 96 per working column (one row of measurements); 1.1 MB at 320x240
+// and index map scale 1 with the default sweep, whatever the pool's capacity. fuse() never touches
+// the heap.
 // Threads: one SurfelFusion per mapping thread; fuse() is not reentrant.
 #pragma once
 
