@@ -729,19 +729,26 @@ TEST(SurfelFusion, ASeenSurfelInTheSweepIsDecidedOnce) {
   EXPECT_EQ(c.pool.confidence()[0], 12.0f + expected_weight(c.K, 100, 80));
 }
 
+// A wall at 2 m seen from the identity pose; surfels added in front of it lie where the sensor sees
+// through.
+struct WallCase {
+  Intrinsics K = ef::test::kinect_320x240();
+  Frame wall = flat_frame(K, 2.0, Rgb8{50, 60, 70});
+  Preprocessor pre = make_pre(K, wall);
+  SurfelPool pool = make_pool(100'000);
+  SurfelFusion fusion = make_fusion(K, 100'000);
+  Eigen::Vector3f n = Eigen::Vector3f(0, 0, -1);
+};
+
 TEST(SurfelFusion, AnIdListedTwiceInAnIndexMapIsRemovedOnce) {
   // The predictor puts each surfel into one index pixel; a map made otherwise may list one twice.
   // A floating unstable surfel seen through from two index pixels is still removed once, and the
   // surfel that swap-removal moves is kept.
-  const Intrinsics K = ef::test::kinect_320x240();
-  const Frame wall = flat_frame(K, 2.0, Rgb8{50, 60, 70});
-  Preprocessor pre = make_pre(K, wall);
-  SurfelPool pool = make_pool(100'000);
-  SurfelFusion fusion = make_fusion(K, 100'000);
-  const Eigen::Vector3f n(0, 0, -1);
-  add_on_ray(pool, K, 200, 150, 1.0f, n, 0.005f, 1.0f, pack_rgb(2, 2, 2), 0);  // unstable, floating
-  add_on_ray(pool, K, 60, 60, 3.0f, n, 0.005f, 1.0f, pack_rgb(3, 3, 3), 0);    // behind the wall
-  IndexMap index = splat_index(pool, K, 4, SE3());
+  WallCase c;
+  SurfelPool& pool = c.pool;
+  add_on_ray(pool, c.K, 200, 150, 1.0f, c.n, 0.005f, 1.0f, pack_rgb(2, 2, 2), 0);  // unstable, floating
+  add_on_ray(pool, c.K, 60, 60, 3.0f, c.n, 0.005f, 1.0f, pack_rgb(3, 3, 3), 0);    // behind the wall
+  IndexMap index = splat_index(pool, c.K, 4, SE3());
   int copies = 0;
   for (int y = 0; y < index.id.height() && copies == 0; ++y)
     for (int x = 0; x < index.id.width(); ++x)
@@ -754,7 +761,7 @@ TEST(SurfelFusion, AnIdListedTwiceInAnIndexMapIsRemovedOnce) {
       }
   ASSERT_EQ(copies, 1);
   FusionStats st;
-  ASSERT_TRUE(fusion.fuse(pre, wall.color.view(), SE3(), index, 1, &pool, &st).ok());
+  ASSERT_TRUE(c.fusion.fuse(c.pre, c.wall.color.view(), SE3(), index, 1, &pool, &st).ok());
   EXPECT_EQ(pool.size(), 1 + st.new_surfels);
   EXPECT_EQ(pool.color()[0], pack_rgb(3, 3, 3));
   for (int64_t i = 0; i < pool.size(); ++i) EXPECT_NE(pool.color()[i], pack_rgb(2, 2, 2));
@@ -762,12 +769,13 @@ TEST(SurfelFusion, AnIdListedTwiceInAnIndexMapIsRemovedOnce) {
 
 TEST(SurfelFusion, FreeSpaceViolationRemovesUnstableAndDemotesStable) {
   // A wall at 2 m; floating surfels at 1 m lie where the sensor sees through.
-  const Intrinsics K = ef::test::kinect_320x240();
-  const Frame wall = flat_frame(K, 2.0, Rgb8{50, 60, 70});
-  Preprocessor pre = make_pre(K, wall);
-  SurfelPool pool = make_pool(100'000);
-  SurfelFusion fusion = make_fusion(K, 100'000);
-  const Eigen::Vector3f n(0, 0, -1);
+  WallCase c;
+  const Intrinsics& K = c.K;
+  const Frame& wall = c.wall;
+  Preprocessor& pre = c.pre;
+  SurfelPool& pool = c.pool;
+  SurfelFusion& fusion = c.fusion;
+  const Eigen::Vector3f& n = c.n;
   add_on_ray(pool, K, 100, 100, 1.0f, n, 0.005f, 12.0f, pack_rgb(1, 1, 1), 0);  // stable
   add_on_ray(pool, K, 200, 150, 1.0f, n, 0.005f, 1.0f, pack_rgb(2, 2, 2), 0);   // unstable
   add_on_ray(pool, K, 60, 60, 3.0f, n, 0.005f, 1.0f, pack_rgb(3, 3, 3), 0);     // behind the wall: occluded, fine
