@@ -23,7 +23,8 @@ constexpr int kMinCoarsestSize = 8;  // pixels, both dimensions (as the Preproce
 constexpr int kMaxIndexScale = 4;
 constexpr float kMaxSplatCapPx = 64.0f;
 // Surfels per block of the pass over the pool: a block's transformed columns (5 x 4 bytes x 256 =
-// 5 KiB, two blocks on the stack) stay in L1 between the vectorised transform and the scalar loops.
+// 5 KiB, two blocks on the stack) and its discs (11 KiB) stay in L1 between the vectorised loops and
+// the scalar ones.
 constexpr int kBlock = 256;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
@@ -351,8 +352,8 @@ void setup_discs(const Block& b, const float* __restrict wnx, const float* __res
     const float nwx = nx - nz * tx, nwy = ny - nz * ty;
     const float sx = std::sqrt(std::max(0.0f, 1.0f + tx * tx - nwx * nwx));
     const float sy = std::sqrt(std::max(0.0f, 1.0f + ty * ty - nwy * nwy));
-    // Every operation unconditional, then selects: GCC (under its default -ftrapping-math) does not
-    // if-convert, and so does not vectorise, a loop with a float operation inside a condition.
+    // Every operation unconditional, then selects: GCC does not vectorise a loop with a float
+    // operation inside a condition unless it may speculate it (-fno-trapping-math).
     const bool bounded = z_min > 0.0f;
     const float z_den = bounded ? z_min : 1.0f;
     const float hx_bound = std::min(k.fx * rad * sx / z_den, k.cap_px);

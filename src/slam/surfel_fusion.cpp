@@ -344,7 +344,8 @@ void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
 inline void SurfelFusion::sample_geometry(const FrameContext& fc, const Eigen::Vector3f& v, const Eigen::Vector3f& n_c,
                                           Eigen::Vector3f* p, float* radius) const {
   *p = fc.R_wc * v + fc.t_wc;
-  const float cos_abs = std::fabs(n_c.dot(v)) / std::sqrt(v.squaredNorm());  // (Eigen's norm(), as a plain sqrt)
+  // v.norm() written as the square root of squaredNorm() (the same value), which GCC vectorises.
+  const float cos_abs = std::fabs(n_c.dot(v)) / std::sqrt(v.squaredNorm());
   *radius = fusion_math::surfel_radius_m(v.z(), cos_abs, focal_, options_.max_radius_incidence_factor);
 }
 
