@@ -89,7 +89,8 @@ inline float grey_level(uint8_t r, uint8_t g, uint8_t b) {
 }
 
 inline bool valid_vertex(const Eigen::Vector3f& v) { return v.z() > 0.0f; }
-inline bool valid_normal(const Eigen::Vector3f& n) { return n.x() != 0.0f || n.y() != 0.0f || n.z() != 0.0f; }
+// Evaluated without short circuit (`|`), so that loops calling it can stay branch-free and vectorise.
+inline bool valid_normal(const Eigen::Vector3f& n) { return (n.x() != 0.0f) | (n.y() != 0.0f) | (n.z() != 0.0f); }
 
 class Preprocessor {
  public:

@@ -203,11 +203,11 @@ void SurfelFusion::see(int32_t cell) {
 template <bool kCoarse>
 inline bool SurfelFusion::measure(int x, int y, float d, const float* n0, const float* n1, float cd,
                                   Eigen::Vector3f* v, Eigen::Vector3f* n_c) const {
-  const bool valid = (d > 0.0f) & ((n0[0] != 0.0f) | (n0[1] != 0.0f) | (n0[2] != 0.0f));  // valid_normal
+  const bool valid = (d > 0.0f) & valid_normal(Eigen::Vector3f(n0[0], n0[1], n0[2]));
   *v = K_.backproject(static_cast<float>(x), static_cast<float>(y), d);
   float nx = n0[0], ny = n0[1], nz = n0[2];
   if (kCoarse) {
-    const bool take = ((n1[0] != 0.0f) | (n1[1] != 0.0f) | (n1[2] != 0.0f)) & (std::fabs(cd - d) <= depth_gate(d));
+    const bool take = valid_normal(Eigen::Vector3f(n1[0], n1[1], n1[2])) & (std::fabs(cd - d) <= depth_gate(d));
     nx = take ? n1[0] : nx;
     ny = take ? n1[1] : ny;
     nz = take ? n1[2] : nz;
