@@ -12,10 +12,14 @@ Every number comes from the `edgefusion` program:
 
 Seeds must be ones training never used (models/edgefusion_models/dataset.py: train 1..360,
 validation 9001..9012, test 7001..7024). Default 5001 5002 5003, 1200 frames each (over one lap of
-the room's loop, so the end of each sequence revisits its start).
+the room's loop, so the end of each sequence revisits its start). --rooms takes the built-in rooms
+instead (synthetic:ROOM, e.g. living_room bedroom office kitchen library: fixed layouts that training,
+which only drew random rooms, never used); --trajectory robot the planar robot path instead of the
+hand-held loop.
 
   /usr/bin/python3 bench/semantic_table.py --edgefusion build/release/firmware_app/edgefusion \\
-      --work /tmp/semantic-table [--seeds 5001 5002 5003] [--frames 1200] [--every 10] [--crf-every 500]
+      --work /tmp/semantic-table [--seeds 5001 5002 5003 | --rooms ROOM...] [--trajectory loop|robot] \\
+      [--frames 1200] [--every 10] [--crf-every 500]
 Prints a Markdown table (per sequence and the mean of the sequences).
 """
 import argparse
@@ -54,6 +58,10 @@ def main():
     ap.add_argument("--edgefusion", required=True)
     ap.add_argument("--work", required=True, help="folder for the sequences and outputs (reused when present)")
     ap.add_argument("--seeds", type=int, nargs="+", default=[5001, 5002, 5003])
+    ap.add_argument("--rooms", nargs="+", default=[],
+                    help="built-in rooms (synthetic:ROOM) to render instead of random seeds")
+    ap.add_argument("--trajectory", choices=["loop", "robot"], default="loop",
+                    help="camera path of the rendered sequences (default the hand-held loop)")
     ap.add_argument("--frames", type=int, default=1200)
     ap.add_argument("--every", type=int, default=10, help="evaluate every K-th frame (and fuse every K-th)")
     ap.add_argument("--crf-every", type=int, default=500, help="SF-CRF: CRF every M frames (paper: 500)")
@@ -71,13 +79,18 @@ def main():
 
     sequences = list(args.sequences)
     if not sequences:
-        for s in args.seeds:
-            folder = os.path.join(args.work, f"seed{s}")
+        suffix = "" if args.trajectory == "loop" else "-" + args.trajectory
+        if args.rooms:
+            jobs = [(room + suffix, f"synthetic:{room}?trajectory={args.trajectory}&frames={args.frames}")
+                    for room in args.rooms]
+        else:
+            jobs = [(f"seed{s}{suffix}", f"synthetic:random?seed={s}&trajectory={args.trajectory}&frames={args.frames}")
+                    for s in args.seeds]
+        for name, uri in jobs:
+            folder = os.path.join(args.work, name)
             if not os.path.exists(os.path.join(folder, "done")):
-                print(f"rendering seed {s} ({args.frames} frames)", file=sys.stderr)
-                run([ef, "convert", "--source",
-                     f"synthetic:random?seed={s}&trajectory=loop&frames={args.frames}",
-                     "--resolution", "320x240", "--to", "tum:" + folder, "--quiet"])
+                print(f"rendering {uri}", file=sys.stderr)
+                run([ef, "convert", "--source", uri, "--resolution", "320x240", "--to", "tum:" + folder, "--quiet"])
                 open(os.path.join(folder, "done"), "w").close()
             sequences.append(folder)
 
