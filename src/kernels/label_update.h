@@ -1,7 +1,7 @@
 // The Bayesian label update of SemanticFusion (McCormac et al., ICRA 2017, equation 1) on the label
 // store's fixed-point costs (semantic/label_store.h documents the encoding):
 //   P(l | I_1..k) = (1/Z) P(l | I_1..k-1) P(O_k = l | I_k)
-// In costs (cost_c = round(-ln(p_c / p_max) * 16)) the product is an addition and the
+// In costs (cost_c = round(-ln(p_c / p_max) / step), step 1/8 nat) the product is an addition and the
 // normalisation 1/Z is the subtraction of the smallest cost, so the most likely class is 0 again:
 //   t_c = min(255, old_c + obs_c)   for the 16 bytes
 //   m   = min over the 14 class bytes of t

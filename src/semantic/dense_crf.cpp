@@ -246,7 +246,7 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
   const auto t_iterate = std::chrono::steady_clock::now();
   uint8_t* labels = pool.labels();
   uint16_t* q16 = q_.get();
-  // Initialisation: Q = softmax(-psi_u), psi_u(l) = cost_l / 16 nats (+ a constant per surfel).
+  // Initialisation: Q = softmax(-psi_u), psi_u(l) = cost_l * kLabelCostStep nats (+ a constant per surfel).
   for (int64_t i = 0; i < n; ++i) {
     if (i + kLabelPrefetch < n) __builtin_prefetch(labels + std::size_t(order[i + kLabelPrefetch]) * kLabelBytes);
     alignas(64) float z[kV], q[kV];

@@ -3,7 +3,7 @@
 //
 // Every surfel is a node; the energy is E(x) = sum_s psi_u(x_s) + sum_{s<s'} psi_p(x_s, x_s')
 // (eq. 2) with the unary psi_u(l) = -ln P(L_s = l) of the surfel's fused distribution (eq. 3, read
-// from the label store: cost_l / 16 nats, semantic/label_store.h) and a Potts pairwise term
+// from the label store: cost_l * kLabelCostStep (1/8) nats, semantic/label_store.h) and a Potts pairwise term
 // mu(l, l') = [l != l'] times two Gaussian kernels (eqs. 4-6):
 //   bilateral  w1 exp(-|p - p'|^2 / 2 theta_a^2 - |c - c'|^2 / 2 theta_b^2)   (position, RGB)
 //   spatial    w2 exp(-|p - p'|^2 / 2 theta_a^2 - |n - n'|^2 / 2 theta_g^2)   (position, normal)

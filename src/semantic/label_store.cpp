@@ -59,19 +59,22 @@ void label_summary(const uint8_t* stores, std::size_t n, uint8_t* class_id, floa
 
 namespace {
 // Observation costs by table: for r = p_c / p_max in (0, 1], the cost depends on r's float exponent
-// (2^-23 .. 2^0: below 2^-23 < e^(-254.5/16) every cost is 255) and the top 11 bits of its mantissa.
-// Each entry is the exact rounding at its bucket's centre; a bucket spans 16 ln(1 + 2^-11) = 0.0078
-// cost units, so a cost can differ from the exact rounding, by one unit, only where
-// -ln(p_c / p_max) / step lies within 0.0078 of a half-integer.
+// (2^-(kExponents-1) .. 2^0: below that every cost is 255) and the top 11 bits of its mantissa.
+// Each entry is the exact rounding at its bucket's centre; a bucket spans ln(1 + 2^-11) / step =
+// 0.0039 cost units, so a cost can differ from the exact rounding, by one unit, only where
+// -ln(p_c / p_max) / step lies within 0.004 of a half-integer.
 constexpr int kMantissaBits = 11;
-constexpr uint32_t kLowestExponent = 127 - 23;
-constexpr std::size_t kCostTableSize = std::size_t(24) << kMantissaBits;
+// Exponents down to the first whose every ratio saturates: 2^-k <= e^(-254.5 step), k = 46 at 1/8 nat.
+constexpr int kExponents = int((double(kLabelCostMax) - 0.5) * double(kLabelCostStep) / 0.6931471805599453) + 2;
+constexpr uint32_t kLowestExponent = 127 - (kExponents - 1);
+constexpr std::size_t kCostTableSize = std::size_t(kExponents) << kMantissaBits;
+static_assert(kLowestExponent >= 1, "the table's ratios must be normal floats");
 
 const std::array<uint8_t, kCostTableSize>& ratio_cost_table() {
   static const std::array<uint8_t, kCostTableSize> table = [] {
     std::array<uint8_t, kCostTableSize> t{};
     for (std::size_t i = 0; i < kCostTableSize; ++i) {
-      const int exponent = int(i >> kMantissaBits) - 23;
+      const int exponent = int(i >> kMantissaBits) - (kExponents - 1);
       const double mantissa = 1.0 + (double(i & ((1u << kMantissaBits) - 1)) + 0.5) / double(1u << kMantissaBits);
       t[i] = cost_from_nats(-(std::log(mantissa) + exponent * std::log(2.0)));
     }

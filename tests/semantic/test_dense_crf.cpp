@@ -201,7 +201,7 @@ std::vector<std::vector<double>> brute_mean_field(const slam::SurfelPool& pool, 
   std::vector<std::vector<double>> unary(n, std::vector<double>(kLabelClasses)), q = unary;
   for (std::size_t i = 0; i < n; ++i)
     for (int c = 0; c < kLabelClasses; ++c)
-      unary[i][std::size_t(c)] = double(pool.labels()[i * kLabelBytes + std::size_t(c)]) / 16.0;
+      unary[i][std::size_t(c)] = double(pool.labels()[i * kLabelBytes + std::size_t(c)]) * double(kLabelCostStep);
   auto normalise_exp = [](const std::vector<double>& z, std::vector<double>& out) {
     const double mx = *std::max_element(z.begin(), z.end());
     double sum = 0;

@@ -21,6 +21,8 @@
 namespace ef::semantic {
 namespace {
 
+const double kStep = double(kLabelCostStep);  // nats per cost unit
+
 using Dist = std::vector<float>;
 
 Dist random_dist(std::mt19937& rng, float floor_p) {
@@ -51,8 +53,8 @@ TEST(LabelStore, EncodeDecodeRoundTripWithinHalfStep) {
     EXPECT_EQ(costs[15], 0);
     float p[kLabelClasses];
     decode_labels(costs, p);
-    // Encoding alone: each log-ratio within 1/32 nat, after renormalising within 1/16.
-    for (int c = 0; c < kLabelClasses; ++c) EXPECT_LE(std::fabs(std::log(p[c] / d[c])), 1.0 / 16 + 1e-5) << c;
+    // Encoding alone: each log-ratio within half a step, after renormalising within one step.
+    for (int c = 0; c < kLabelClasses; ++c) EXPECT_LE(std::fabs(std::log(p[c] / d[c])), kStep + 1e-5) << c;
     int best = 0;
     for (int c = 1; c < kLabelClasses; ++c)
       if (d[c] > d[best]) best = c;
@@ -63,13 +65,13 @@ TEST(LabelStore, EncodeDecodeRoundTripWithinHalfStep) {
 TEST(LabelStore, EncodingCostsAndSaturation) {
   Dist d(kLabelClasses, 0.0f);
   d[3] = 1.0f;
-  d[4] = std::exp(-1.0f);    // 1 nat: cost 16
-  d[5] = std::exp(-15.9f);   // 254.4 units: cost 254
-  d[6] = std::exp(-16.0f);   // 256 units: saturates
+  d[4] = std::exp(-1.0f);                      // 1 nat: 1 / step units
+  d[5] = std::exp(-254.4f * kLabelCostStep);   // 254.4 units: cost 254
+  d[6] = std::exp(-256.0f * kLabelCostStep);   // 256 units: saturates
   uint8_t costs[kLabelBytes];
   encode_labels(d.data(), costs);
   EXPECT_EQ(costs[3], 0);
-  EXPECT_EQ(costs[4], 16);
+  EXPECT_EQ(costs[4], int(std::lround(1.0 / kStep)));
   EXPECT_EQ(costs[5], 254);
   EXPECT_EQ(costs[6], 255);
   EXPECT_EQ(costs[0], 255);  // zero probability
@@ -110,7 +112,7 @@ TEST(LabelStore, UpdateEqualsClosedForm) {
       decode_labels(store, p);
       for (int c = 0; c < kLabelClasses; ++c) {
         const double exact = std::exp(log_exact[std::size_t(c)]) / z;
-        EXPECT_LE(std::fabs(std::log(double(p[c]) / exact)), k / 16.0 + k * 1e-3) << v.name << " k=" << k << " c=" << c;
+        EXPECT_LE(std::fabs(std::log(double(p[c]) / exact)), k * kStep + k * 1e-3) << v.name << " k=" << k << " c=" << c;
       }
       EXPECT_EQ(store[14], 0);
       EXPECT_EQ(store[15], 0);
@@ -136,8 +138,8 @@ TEST(LabelStore, HandMadeTwoObservations) {
   const double z = 2 * 0.6 * 0.28 + 12 * 0.0001;
   float p[kLabelClasses];
   decode_labels(store, p);
-  EXPECT_LE(std::fabs(std::log(p[1] / (0.168 / z))), 2 / 16.0 + 2e-3);
-  EXPECT_LE(std::fabs(std::log(p[5] / (0.0001 / z))), 2 / 16.0 + 2e-3);
+  EXPECT_LE(std::fabs(std::log(p[1] / (0.168 / z))), 2 * kStep + 2e-3);
+  EXPECT_LE(std::fabs(std::log(p[5] / (0.0001 / z))), 2 * kStep + 2e-3);
 }
 
 // Repeated confident observations saturate the other classes at 255 and stay there.
@@ -153,7 +155,7 @@ TEST(LabelStore, SaturatesAndStaysNormalised) {
 }
 
 TEST(LabelStore, LogitTableIsExactSoftmaxRatio) {
-  const float s = 0.0625f;  // one int8 step = one cost unit
+  const float s = kLabelCostStep;  // one int8 step = one cost unit
   LogitCostTable table(s);
   std::vector<int8_t> q = {10, -3, 20, 20, -128, 127, 0, 1, 2, 3, 4, 5, 6, 7};
   uint8_t out[kLabelBytes];
@@ -175,11 +177,11 @@ TEST(LabelStore, LogitTableIsExactSoftmaxRatio) {
   for (int c = 0; c < kLabelClasses; ++c) EXPECT_LE(std::abs(int(a[c]) - int(b[c])), 1) << c;  // float softmax rounding
 }
 
-// The observation table against the exact rounding with std::log: equal except within 0.008 units
+// The observation table against the exact rounding with std::log: equal except within 0.004 units
 // of a half-integer (label_store.h), where it may be one off; degenerate pixels change nothing.
 TEST(LabelStore, ObservationTableMatchesExactRounding) {
   std::mt19937 rng(4);
-  std::uniform_real_distribution<double> logp(-17.0, 0.0);
+  std::uniform_real_distribution<double> logp(-(kLabelCostMax + 8) * kStep, 0.0);  // past saturation
   int near_half = 0;
   for (int t = 0; t < 20000; ++t) {
     Dist d(kLabelClasses);
@@ -188,9 +190,9 @@ TEST(LabelStore, ObservationTableMatchesExactRounding) {
     uint8_t out[kLabelBytes];
     observation_from_probabilities(d.data(), out);
     for (int c = 0; c < kLabelClasses; ++c) {
-      const double units = -std::log(double(d[std::size_t(c)])) * 16.0;
+      const double units = -std::log(double(d[std::size_t(c)])) / kStep;
       const int exact = units >= 254.5 ? 255 : int(std::lround(units));
-      if (std::fabs(units - std::floor(units) - 0.5) < 0.008) {
+      if (std::fabs(units - std::floor(units) - 0.5) < 0.004) {
         ++near_half;
         EXPECT_LE(std::abs(int(out[c]) - exact), 1) << units;
       } else {
