@@ -8,6 +8,9 @@ Every number comes from the `edgefusion` program:
   run       the mapper, CNN fused every --label-every frames, the map's labels rendered into every
             K-th frame with the CNN as fallback ("captured immediately", as the paper)  -> SF/
   run       the same with --crf-every M                                    -> SF-CRF/
+            both runs also with --labels-final-out: after the run, the final map rendered into the
+            same frames at the estimated poses ("SF end", "SF-CRF end": the map's final state,
+            which has also seen the views after each frame)
   eval labels GT EST --every K --depth DIR   for each of the three
 
 Seeds must be ones training never used (models/edgefusion_models/dataset.py: train 1..360,
@@ -110,11 +113,12 @@ def main():
             d = os.path.join(out, method.lower())
             log = run([ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
                        "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
-                       "--quiet"] + run_config + extra)
+                       "--labels-final-out", os.path.join(d, "labels-end"), "--quiet"] + run_config + extra)
             print("  " + " ".join(l for l in log.splitlines() if l.startswith("frames")), file=sys.stderr)
             rows.append((name, method, evaluate(ef, gt, os.path.join(d, "labels"), args.every)))
+            rows.append((name, method + " end", evaluate(ef, gt, os.path.join(d, "labels-end"), args.every)))
 
-    methods = ["CNN", "SF", "SF-CRF"]
+    methods = ["CNN", "SF", "SF-CRF", "SF end", "SF-CRF end"]
     names = [os.path.basename(os.path.normpath(g)) for g in sequences]
     header = "| sequence | method | " + " | ".join(CLASSES) + " | class avg | pixel avg | mIoU |"
     print(header)
@@ -140,11 +144,11 @@ def main():
             mean[key] = sum(vals) / len(vals)
         print(line("mean", method, mean))
     cnn = [r[2]["class_avg"] for r in rows if r[1] == "CNN"]
-    sf = [r[2]["class_avg"] for r in rows if r[1] == "SF"]
-    crf = [r[2]["class_avg"] for r in rows if r[1] == "SF-CRF"]
-    print(f"\nclass average, mean of {len(cnn)} sequences: CNN {100 * sum(cnn) / len(cnn):.1f}, "
-          f"SF {100 * sum(sf) / len(sf):.1f} ({100 * (sum(sf) - sum(cnn)) / len(cnn):+.1f}), "
-          f"SF-CRF {100 * sum(crf) / len(crf):.1f} ({100 * (sum(crf) - sum(cnn)) / len(cnn):+.1f})")
+    parts = [f"CNN {100 * sum(cnn) / len(cnn):.1f}"]
+    for method in methods[1:]:
+        v = [r[2]["class_avg"] for r in rows if r[1] == method]
+        parts.append(f"{method} {100 * sum(v) / len(v):.1f} ({100 * (sum(v) - sum(cnn)) / len(cnn):+.1f})")
+    print(f"\nclass average, mean of {len(cnn)} sequences: " + ", ".join(parts))
 
 
 if __name__ == "__main__":

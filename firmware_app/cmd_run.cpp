@@ -41,7 +41,9 @@ std::string run_help() {
                      "surfels it sees (Bayesian update); the optional dense CRF smooths them over the map.\n"
                      "--labels-out renders the map's most likely class into the frame's view, falling back to\n"
                      "the CNN's own prediction where no labelled surfel is seen (class ids 0..13, for\n"
-                     "`edgefusion eval labels`).\n\n"
+                     "`edgefusion eval labels`) as the map was when the frame arrived; --labels-final-out (a\n"
+                     "recording only) reads it again after the run and renders the final map at the estimated\n"
+                     "poses into the same frames.\n\n"
                      "Sources: " + std::string(source_uri_help()) + "\nBuilt-in rooms: " + rooms,
                      run_options());
 }
@@ -140,9 +142,11 @@ int cmd_run(int argc, char** argv) {
   auto config_or = config_from_args(*args);
   if (!config_or.ok()) return report_error(kCmd, config_or.error(), 2);
   RunConfig config = std::move(*config_or);
-  if (!config.labels && (!config.labels_out.empty() || config.crf_every > 0 || config.crf_final))
+  if (!config.labels &&
+      (!config.labels_out.empty() || !config.labels_final_out.empty() || config.crf_every > 0 || config.crf_final))
     return report_error(kCmd, error(ErrorCode::kInvalidArgument,
-                                    "--labels-out and the CRF need labels: drop --no-labels (or 'labels: false')"),
+                                    "--labels-out, --labels-final-out and the CRF need labels: drop --no-labels (or "
+                                    "'labels: false')"),
                         2);
   if (config.out_dir.empty())
     return report_error(kCmd, error(ErrorCode::kInvalidArgument, "missing --out DIR (or 'out:' in --config)"), 2);
@@ -162,6 +166,11 @@ int cmd_run(int argc, char** argv) {
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
   FrameSource& source = **source_or;
   const SourceInfo& info = source.info();
+  if (!config.labels_final_out.empty() && info.live)
+    return report_error(kCmd, error(ErrorCode::kInvalidArgument,
+                                    "--labels-final-out reads the source a second time after the run; " +
+                                        config.source + " is a live camera (record it first, e.g. to .klg)"),
+                        2);
 
   // Everything sized once, before the first frame.
   StageStats stats;
@@ -219,6 +228,21 @@ int cmd_run(int argc, char** argv) {
   if (files.wrote_trajectory) std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
   std::printf("stats: %s\n", files.stats.c_str());
+  // The final map's labels in the recording's frames: a second reading, after the outputs are safe.
+  if (!config.labels_final_out.empty() && outcome.frames > 0) {
+    std::fprintf(stderr, "%s: rendering the final map's labels into %s, every %d frames\n", kCmd,
+                 config.source.c_str(), config.labels_out_every);
+    auto replay = open_source(config.source);
+    auto counts = replay.ok() ? pipeline.render_final_labels(**replay) : Result<FinalLabelCounts>(replay.error());
+    if (!counts.ok()) {
+      report_error(kCmd, counts.error(), 1);
+      exit_code = 1;
+    } else {
+      std::printf("final labels: %lld images in %s (%lld of lost frames: the CNN's labels; %lld frames not mapped)\n",
+                  static_cast<long long>(counts->images_written), config.labels_final_out.c_str(),
+                  static_cast<long long>(counts->from_cnn_only), static_cast<long long>(counts->not_mapped));
+    }
+  }
   return exit_code;
 }
 

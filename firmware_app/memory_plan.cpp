@@ -220,6 +220,18 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
     cnn_result = out_px * static_cast<size_t>(classes) * sizeof(float) + px(w, h);
     add("label rendering", px(w, h), "the map's labels, " + size_text(w, h) + " x 1 byte");
     add("map.ply class columns", cap * (sizeof(uint8_t) + sizeof(float)), "5 bytes (class id, probability) x capacity");
+    if (!config.labels_final_out.empty()) {
+      // firmware_app/final_labels.h, after the run: a source frame, a working frame, a CNN result,
+      // a predictor of the whole map and the rendered image, beside everything the run holds.
+      slam::PredictionOptions whole = pred;
+      whole.active_window_frames = 0;
+      add("final label pass",
+          px(src.w, src.h) * kFrameBytesPerPixel + px(w, h) * kFrameBytesPerPixel +
+              out_px * static_cast<size_t>(classes) * sizeof(float) + px(w, h) +
+              slam::ModelPredictor::bytes_for(w, h, levels, whole) + px(w, h),
+          "after the run: frames at " + size_text(src.w, src.h) + " and " + size_text(w, h) +
+              ", a CNN result, a predictor of the whole map, the rendering");
+    }
     if (config.crf_every > 0 || config.crf_final) {
       // semantic/dense_crf.h: capacity x kBytesPerSurfel + lattice vertices x kBytesPerVertex, where
       // the vertex part is two lattices (PermutohedralLattice::create: points, vertices and one spare

@@ -56,6 +56,9 @@ constexpr OptionDoc kOptions[] = {
     {"labels.every", "label_every", "frames between CNN label updates, 1..1000000; default 10 (the paper's)"},
     {"labels.out", "labels_out", "folder for the map's labels rendered as class-id PNGs; default none"},
     {"labels.out_every", "labels_out_every", "write every K-th frame's rendering, 1..1000000; default 10"},
+    {"labels.final_out", "labels_final_out",
+     "recordings only: after the run, read the recording again and write the final map's labels in every "
+     "out_every-th frame, at the estimated poses, into this folder; default none"},
     {"labels.visibility", "label_visibility",
      "fuse / render only surfels at the measured depth; false = every index-map surfel; default true"},
     {"crf.every", "crf_every", "frames between dense CRF runs over the map, 0 = off; default 0 (paper: 500)"},
@@ -173,6 +176,7 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "labels.every") return std::to_string(c.label_every);
   if (path == "labels.out") return c.labels_out.empty() ? "" : quoted(c.labels_out);
   if (path == "labels.out_every") return std::to_string(c.labels_out_every);
+  if (path == "labels.final_out") return c.labels_final_out.empty() ? "" : quoted(c.labels_final_out);
   if (path == "labels.visibility") return bool_text(c.label_visibility);
   if (path == "crf.every") return std::to_string(c.crf_every);
   if (path == "crf.final") return bool_text(c.crf_final);
@@ -346,9 +350,12 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     auto v = parse_integer(value, -1, INT64_MAX);
     if (!v.ok() || *v == 0) return bad("is not a positive integer or -1");
     config.max_frames = *v;
-  } else if (path == "out" || path == "labels.model" || path == "labels.out") {
+  } else if (path == "out" || path == "labels.model" || path == "labels.out" || path == "labels.final_out") {
     if (value.empty()) return bad(path == "labels.model" ? "is empty (expected a .efm file)" : "is empty (expected a folder)");
-    (path == "out" ? config.out_dir : path == "labels.model" ? config.model : config.labels_out) = value;
+    (path == "out"            ? config.out_dir
+     : path == "labels.model" ? config.model
+     : path == "labels.out"   ? config.labels_out
+                              : config.labels_final_out) = value;
   } else if (path == "gpio.led_chip" || path == "gpio.button_chip") {
     if (value.empty()) return bad("is empty (expected a chip name, /dev path, number or label)");
     (path == "gpio.led_chip" ? config.gpio.led.chip : config.gpio.button.chip) = value;
@@ -478,6 +485,9 @@ const std::vector<OptionSpec>& config_override_options() {
       {"--label-every", "N", "segment and fuse labels every N-th frame; default 10 (the paper's)"},
       {"--labels-out", "DIR", "write the map's labels rendered into every K-th frame as DIR/<frame>.png"},
       {"--labels-out-every", "K", "with --labels-out: every K-th frame, counted from the first; default 10"},
+      {"--labels-final-out", "DIR",
+       "recordings: after the run, the final map's labels in every K-th frame (at the estimated poses) as "
+       "DIR/<frame>.png"},
       {"--crf-every", "M", "dense CRF over the whole map every M frames; default 0 = off (paper: 500)"},
       {"--crf-final", "", "dense CRF over the whole map once at the end, before map.ply is written"},
       {"--crf-iterations", "N", "mean-field iterations per CRF run, 1..100; default 10"},
@@ -492,7 +502,7 @@ Result<RunConfig> config_from_args(const ParsedArgs& args) {
   if (args.has("--config")) EF_RETURN_IF_ERROR(apply_config_file(args.get("--config"), config));
   // Option --x-y overrides the flat key x_y.
   for (const char* key : {"source", "resolution", "frames", "out", "surfel_capacity", "model", "label_every",
-                          "labels_out", "labels_out_every", "crf_every", "crf_iterations", "memory_budget_mb",
+                          "labels_out", "labels_out_every", "labels_final_out", "crf_every", "crf_iterations", "memory_budget_mb",
                           "threads"}) {
     std::string opt = std::string("--") + key;
     for (char& ch : opt)

@@ -51,6 +51,9 @@ struct RunConfig {
   int label_every = 10;                 // CNN + Bayesian update every N frames (>= 1; paper: 10)
   std::string labels_out;               // folder for rendered class-id PNGs; empty = none
   int labels_out_every = 10;            // write the rendering of every K-th frame (>= 1)
+  std::string labels_final_out;         // folder for the final map's labels rendered into every
+                                        // labels_out_every-th frame of a second reading of the
+                                        // recording (firmware_app/final_labels.h); empty = none
   bool label_visibility = true;         // fuse / render only surfels whose depth matches the measured
                                         // depth (semantic/visibility.h); false = every index-map surfel
   // Dense CRF over the map, section `crf`.

@@ -243,4 +243,11 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   return out;
 }
 
+Result<FinalLabelCounts> RunPipeline::render_final_labels(FrameSource& replay) {
+  if (semantics_ == nullptr)
+    return error(ErrorCode::kInvalidArgument, "--labels-final-out needs labels: drop --no-labels");
+  const std::string trajectory = (std::filesystem::path(config_.out_dir) / "trajectory.txt").string();
+  return app::render_final_labels(config_, replay, trajectory, mapping_->slam(), *semantics_);
+}
+
 }  // namespace ef::app

@@ -38,6 +38,7 @@
 #include "core/stage_ring.h"
 #include "core/result.h"
 #include "core/stage_stats.h"
+#include "final_labels.h"
 #include "front_stage.h"
 #include "io/frame_source.h"
 #include "mapping_stage.h"
@@ -88,6 +89,10 @@ class RunPipeline {
   // After run(): the final CRF (if asked for), then trajectory.txt closed, map.ply and stats.json.
   // Every output is attempted even when another failed.
   OutputFiles write_outputs(const RunOutcome& outcome);
+  // After write_outputs(): the final map's labels in every labels_out_every-th frame of `replay`, the
+  // same recording opened again, into config.labels_final_out (firmware_app/final_labels.h).
+  // Errors: a run without labels, and the pass's (they name the file or the frame).
+  Result<FinalLabelCounts> render_final_labels(FrameSource& replay);
 
   const slam::SurfelSlam& slam() const { return mapping_->slam(); }
   const MappingStage& mapping() const { return *mapping_; }

@@ -26,6 +26,13 @@ semantic::DenseCrfOptions run_crf_options(const RunConfig& config) {
   return co;
 }
 
+std::string label_image_path(const std::string& dir, const Frame& frame) {
+  char numbered[32];
+  std::snprintf(numbered, sizeof numbered, "%06lld", static_cast<long long>(frame.index));
+  const std::string name = frame.name.empty() ? std::string(numbered) : frame.name;
+  return (std::filesystem::path(dir) / (name + ".png")).string();
+}
+
 Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& config, const Intrinsics& working,
                                                            StageStats& stats) {
   std::unique_ptr<RunSemantics> s(new RunSemantics());
@@ -64,12 +71,11 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& conf
   s->class_id_.assign(static_cast<std::size_t>(config.surfel_capacity), 0);
   s->class_prob_.assign(static_cast<std::size_t>(config.surfel_capacity), 0.0f);
 
-  if (!config.labels_out.empty()) {
+  for (const std::string& dir : {config.labels_out, config.labels_final_out}) {
+    if (dir.empty()) continue;
     std::error_code ec;
-    std::filesystem::create_directories(config.labels_out, ec);
-    if (ec)
-      return error(ErrorCode::kIoError,
-                   "cannot create the label output folder '" + config.labels_out + "': " + ec.message());
+    std::filesystem::create_directories(dir, ec);
+    if (ec) return error(ErrorCode::kIoError, "cannot create the label output folder '" + dir + "': " + ec.message());
   }
 
   s->stats_ = &stats;
@@ -184,11 +190,7 @@ Status RunSemantics::write_rendering(const Frame& working, const CnnResult& cnn,
                                      config_.label_visibility ? working.depth.view() : ImageView<const float>());
     if (!r.ok()) return r.take_error();
   }
-  char fallback_name[32];
-  std::snprintf(fallback_name, sizeof fallback_name, "%06lld", static_cast<long long>(working.index));
-  const std::string name = working.name.empty() ? std::string(fallback_name) : working.name;
-  const std::string path = (std::filesystem::path(config_.labels_out) / (name + ".png")).string();
-  EF_RETURN_IF_ERROR(write_label_png_ids(path, rendered_.view()));
+  EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(config_.labels_out, working), rendered_.view()));
   stats_->increment(c_label_images_);
   return Status::success();
 }

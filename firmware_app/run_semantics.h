@@ -42,6 +42,10 @@ namespace ef::app {
 // SurfelSlam map): shared by RunSemantics and the memory plan (memory_plan.h).
 semantic::DenseCrfOptions run_crf_options(const RunConfig& config);
 
+// DIR/<frame name>.png, the label image of `frame` (its index, 6 digits, where it has no name): the
+// names `edgefusion convert --to tum:` gives its labels, so `edgefusion eval labels` pairs them.
+std::string label_image_path(const std::string& dir, const Frame& frame);
+
 // The CNN's result for one frame, carried with the frame from the segment step to the mapping step.
 struct CnnResult {
   bool valid = false;                // the CNN ran on this frame

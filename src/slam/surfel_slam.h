@@ -105,6 +105,8 @@ class SurfelSlam {
   int64_t lost_frames() const { return lost_frames_; }
   const SurfelSlamOptions& options() const { return options_; }
   const ModelPredictor& predictor() const { return predictor_; }
+  // The confidence a surfel needs to enter the tracking maps now (grows with the frames fused).
+  float tracking_min_confidence() const;
 
   // Bytes allocated by create(), by part (for the memory budget).
   std::size_t pool_bytes() const { return pool_.bytes(); }
@@ -123,7 +125,6 @@ class SurfelSlam {
         fusion_(std::move(fusion)),
         pool_(std::move(pool)),
         order_(std::move(order)) {}
-  float tracking_min_confidence() const;
 
   SurfelSlamOptions options_;
   Intrinsics working_;                // the working resolution's intrinsics

@@ -3,7 +3,9 @@
 // agreement with the CNN on the first frame, map.ply's class columns, and option errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +15,8 @@
 #include "app/cli_test_util.h"
 #include "core/frame.h"
 #include "firmware_app/cli.h"
+#include "firmware_app/final_labels.h"
+#include "firmware_app/mapping_stage.h"
 #include "io/image_codec.h"
 #include "io/ply_writer.h"
 #include "semantic/segmenter.h"
@@ -116,6 +120,118 @@ TEST(CliSemantic, RunFusesLabelsRendersThemAndWritesClassColumns) {
   ASSERT_TRUE(plain.ok());
   for (std::size_t i = 0; i < plain->size(); i += 97) ASSERT_EQ(plain->class_prob[i], 0.0f);
   EXPECT_EQ(stats_counter(read_file(dir / "geometry" / "stats.json"), "cnn_frames"), -1);
+}
+
+// --labels-final-out: a second reading of the recording renders the finished map at each frame's
+// estimated pose. At the run's last frame the finished map is the map that frame saw, so the two
+// renderings must agree pixel for pixel; a pose matched to the wrong frame would not.
+TEST(CliSemantic, FinalLabelsRenderTheFinishedMapAtEachFramesPose) {
+  const auto dir = test::scratch_dir("cli-semantic-final");
+  const fs::path model = tiny_model(dir);
+  const std::string uri = "synthetic:bedroom?frames=12&size=160x120";
+  // --frames 9: the second reading stops where the run stopped too (frames 0, 4 and 8 are due).
+  auto r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",
+                "--frames", "9", "--labels-out", (dir / "online").string(), "--labels-out-every", "4",
+                "--labels-final-out", (dir / "final").string(), "--out", (dir / "run").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("final labels: 3 images"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("0 frames not mapped"), std::string::npos) << r.out;
+
+  auto source = open_source(uri);
+  ASSERT_TRUE(source.ok());
+  Frame f;
+  std::vector<std::string> stems;
+  while (*(*source)->next(f)) stems.push_back(f.name);
+  ASSERT_EQ(stems.size(), 12u);
+  std::vector<std::string> written;
+  for (const auto& e : fs::directory_iterator(dir / "final")) written.push_back(e.path().stem().string());
+  std::sort(written.begin(), written.end());
+  EXPECT_EQ(written, (std::vector<std::string>{stems[0], stems[4], stems[8]}));
+
+  auto read = [&](const char* folder, int frame) {
+    Image<uint8_t> img;
+    EXPECT_TRUE(read_png_u8((dir / folder / (stems[std::size_t(frame)] + ".png")).string(), img).ok());
+    return img;
+  };
+  int differ_last = 0, differ_first = 0;
+  const Image<uint8_t> online8 = read("online", 8), final8 = read("final", 8);
+  const Image<uint8_t> online0 = read("online", 0), final0 = read("final", 0);
+  ASSERT_EQ(final8.width(), 160);
+  ASSERT_EQ(final8.height(), 120);
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) {
+      differ_last += online8(x, y) != final8(x, y);
+      differ_first += online0(x, y) != final0(x, y);
+    }
+  EXPECT_EQ(differ_last, 0);
+  // Frame 0's online rendering saw one observation; the finished map has five (frames 0..8, every 2nd).
+  EXPECT_GT(differ_first, 0);
+
+  // It needs labels, and names the option when they are off.
+  r = cli({"run", "--source", uri, "--no-labels", "--labels-final-out", (dir / "x").string(), "--out",
+           (dir / "o").string(), "--quiet"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--labels-final-out"), std::string::npos) << r.err;
+}
+
+// The pass's frame matching on a trajectory it did not write: a frame without a line is skipped and
+// counted, a frame after a "# lost" line gets the CNN's labels alone, a bad "# lost" line is an error
+// naming the file and line.
+TEST(FinalLabels, MatchesFramesToTrajectoryLinesByTimestamp) {
+  const auto dir = test::scratch_dir("final-labels-match");
+  const fs::path model = tiny_model(dir);
+  RunConfig config;
+  config.source = "synthetic:bedroom?frames=6&size=160x120";
+  config.width = 160;
+  config.height = 120;
+  config.model = model.string();
+  config.surfel_capacity = 100000;
+  config.labels_out_every = 1;
+  config.labels_final_out = (dir / "final").string();
+  auto source = open_source(config.source);
+  ASSERT_TRUE(source.ok());
+  const Intrinsics working = (*source)->info().intrinsics.scaled_to(160, 120);
+  StageStats stats;
+  auto semantics = RunSemantics::create(config, working, stats);
+  ASSERT_TRUE(semantics.ok()) << to_string(semantics.error());
+  auto slam = slam::SurfelSlam::create(working, slam_options(config));
+  ASSERT_TRUE(slam.ok());
+
+  // Frames 0..5: no line for frame 2, frame 4 marked lost.
+  std::vector<double> stamps;
+  Frame f;
+  while (*(*source)->next(f)) stamps.push_back(f.timestamp);
+  ASSERT_EQ(stamps.size(), 6u);
+  const fs::path trajectory = dir / "trajectory.txt";
+  {
+    std::ofstream out(trajectory);
+    out << "# timestamp tx ty tz qx qy qz qw\n";
+    for (std::size_t i = 0; i < stamps.size(); ++i) {
+      if (i == 2) continue;
+      char line[128];
+      if (i == 4) {
+        std::snprintf(line, sizeof line, "# lost %.6f too_few_points\n", stamps[i]);
+        out << line;
+      }
+      std::snprintf(line, sizeof line, "%.6f 0 0 0 0 0 0 1\n", stamps[i]);
+      out << line;
+    }
+  }
+  auto replay = open_source(config.source);
+  ASSERT_TRUE(replay.ok());
+  auto counts = render_final_labels(config, **replay, trajectory.string(), *slam, **semantics);
+  ASSERT_TRUE(counts.ok()) << to_string(counts.error());
+  EXPECT_EQ(counts->frames_read, 6);
+  EXPECT_EQ(counts->images_written, 5);
+  EXPECT_EQ(counts->not_mapped, 1);
+  EXPECT_EQ(counts->from_cnn_only, 1);
+
+  std::ofstream(trajectory) << "# lost soon\n" << std::fixed << stamps[0] << " 0 0 0 0 0 0 1\n";
+  replay = open_source(config.source);
+  ASSERT_TRUE(replay.ok());
+  counts = render_final_labels(config, **replay, trajectory.string(), *slam, **semantics);
+  ASSERT_FALSE(counts.ok());
+  EXPECT_NE(counts.error().message.find("trajectory.txt:1"), std::string::npos) << counts.error().message;
 }
 
 // The dense CRF runs every M frames and once more at the end; it changes the map's labels.

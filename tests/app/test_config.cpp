@@ -58,6 +58,7 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.label_every, b.label_every);
   EXPECT_EQ(a.labels_out, b.labels_out);
   EXPECT_EQ(a.labels_out_every, b.labels_out_every);
+  EXPECT_EQ(a.labels_final_out, b.labels_final_out);
   EXPECT_EQ(a.label_visibility, b.label_visibility);
   EXPECT_EQ(a.crf_every, b.crf_every);
   EXPECT_EQ(a.crf_final, b.crf_final);
@@ -285,6 +286,7 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.label_every = 7;
   c.labels_out = "[labels]";
   c.labels_out_every = 11;
+  c.labels_final_out = "labels at the end";
   c.label_visibility = false;
   c.crf_every = 500;
   c.crf_final = true;
@@ -366,6 +368,17 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
                            "map.ply class columns"})
     EXPECT_GT(plan->bytes_of(part), 0u) << part << " missing in\n" << plan->table();
   EXPECT_EQ(plan->bytes_of("dense crf"), 0u);  // off by default
+  EXPECT_EQ(plan->bytes_of("final label pass"), 0u);  // only with labels.final_out
+  {
+    // docs/architecture.md: a 640x480 and a 320x240 frame, a CNN result, the rendering and a predictor
+    // of the whole map: 10.7 MB, on top of everything else.
+    RunConfig with_pass = c;
+    with_pass.labels_final_out = "final";
+    auto pf = plan_memory(with_pass);
+    ASSERT_TRUE(pf.ok()) << to_string(pf.error());
+    EXPECT_NEAR(double(pf->bytes_of("final label pass")), 10.7e6, 0.1e6);
+    EXPECT_EQ(pf->total_bytes - plan->total_bytes, pf->bytes_of("final label pass"));
+  }
   // docs/architecture.md, memory budget: 60 bytes per surfel; 640x480 x 8 source frame; the 1x index
   // map (24 bytes per cell) 1.8 MB of the 6.4 MB of prediction at 320x240; fusion scratch 1.1 MB;
   // spatial order 9.0 MB.

@@ -1,0 +1,109 @@
+#include "final_labels.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <vector>
+
+#include "io/frame_resample.h"
+#include "io/label_image.h"
+#include "io/trajectory_io.h"
+#include "semantic/label_render.h"
+#include "slam/model_prediction.h"
+
+namespace ef::app {
+
+namespace {
+
+// trajectory.txt writes timestamps with 6 decimals: a frame and its line agree within half a
+// microsecond; 2 us leaves room for the double's own rounding and is far below any frame interval.
+constexpr double kTimestampToleranceS = 2e-6;
+
+// The timestamps of the "# lost <timestamp> <reason>" lines the run wrote before a lost frame's pose.
+Result<std::vector<double>> lost_timestamps(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return error(ErrorCode::kIoError, "cannot read the trajectory '" + path + "'");
+  std::vector<double> out;
+  std::string line;
+  const std::string tag = "# lost ";
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.compare(0, tag.size(), tag) != 0) continue;
+    const char* start = line.c_str() + tag.size();
+    char* end = nullptr;
+    const double t = std::strtod(start, &end);
+    if (end == start || !std::isfinite(t))
+      return error(ErrorCode::kInvalidArgument,
+                   path + ":" + std::to_string(number) + ": a '# lost' line without a timestamp");
+    out.push_back(t);
+  }
+  return out;
+}
+
+bool same_time(double a, double b) { return std::fabs(a - b) <= kTimestampToleranceS; }
+
+}  // namespace
+
+Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSource& replay,
+                                             const std::string& trajectory_path, const slam::SurfelSlam& slam,
+                                             RunSemantics& semantics) {
+  auto trajectory = read_tum_trajectory(trajectory_path);
+  if (!trajectory.ok()) return trajectory.take_error();
+  auto lost = lost_timestamps(trajectory_path);
+  if (!lost.ok()) return lost.take_error();
+
+  // The whole map: the tracking prediction's active time window would hide what the run saw long ago.
+  const slam::ModelPredictor& live = slam.predictor();
+  slam::PredictionOptions po = live.options();
+  po.active_window_frames = 0;
+  auto predictor = slam::ModelPredictor::create(live.intrinsics(), live.levels(), po);
+  if (!predictor.ok()) return predictor.take_error();
+
+  const SourceInfo& info = replay.info();
+  Frame input, working;
+  input.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
+  working.allocate(config.width, config.height, info.has_labels);
+  CnnResult cnn;
+  semantics.allocate(cnn);
+  Image<uint8_t> rendered;
+  rendered.allocate(config.width, config.height);
+
+  const std::vector<TimedPose>& poses = trajectory->poses;
+  const int32_t last_frame = static_cast<int32_t>(slam.frames() > 0 ? slam.frames() - 1 : 0);
+  FinalLabelCounts counts;
+  std::size_t next_pose = 0, next_lost = 0;
+  for (int64_t number = 0; config.max_frames < 0 || number < config.max_frames; ++number) {
+    auto got = replay.next(input);
+    if (!got.ok()) return got.take_error();
+    if (!*got) break;
+    ++counts.frames_read;
+    // Poses and lost marks are in frame order: pass those of frames the run had and this reading lacks.
+    const double t = input.timestamp;
+    while (next_pose < poses.size() && poses[next_pose].timestamp < t - kTimestampToleranceS) ++next_pose;
+    while (next_lost < lost->size() && (*lost)[next_lost] < t - kTimestampToleranceS) ++next_lost;
+    const bool has_pose = next_pose < poses.size() && same_time(poses[next_pose].timestamp, t);
+    const bool was_lost = next_lost < lost->size() && same_time((*lost)[next_lost], t);
+    if (number % config.labels_out_every != 0) continue;
+    if (!has_pose) {
+      ++counts.not_mapped;
+      continue;
+    }
+
+    resample_frame(input, working);
+    EF_RETURN_IF_ERROR(semantics.segment(working, cnn));
+    if (was_lost) {
+      rendered.copy_from(cnn.labels.view());
+      ++counts.from_cnn_only;
+    } else {
+      EF_RETURN_IF_ERROR(predictor->predict(slam.pool(), poses[next_pose].T_wc, last_frame,
+                                            slam.tracking_min_confidence()));
+      auto r = semantic::render_labels(*predictor, slam.pool(), cnn.labels.view(), rendered.view(),
+                                       config.label_visibility ? working.depth.view() : ImageView<const float>());
+      if (!r.ok()) return r.take_error();
+    }
+    EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(config.labels_final_out, working), rendered.view()));
+    ++counts.images_written;
+  }
+  return counts;
+}
+
+}  // namespace ef::app
