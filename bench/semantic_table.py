@@ -7,10 +7,10 @@ Every number comes from the `edgefusion` program:
   segment   the single-frame CNN on every K-th frame                       -> CNN/labels/<stem>.png
   run       the mapper, CNN fused every --label-every frames, the map's labels rendered into every
             K-th frame with the CNN as fallback ("captured immediately", as the paper)  -> SF/
-  run       the same with --crf-every M                                    -> SF-CRF/
+  run       the same with --crf-every M and --crf-final                    -> SF-CRF/
             both runs also with --labels-final-out: after the run, the final map rendered into the
             same frames at the estimated poses ("SF end", "SF-CRF end": the map's final state,
-            which has also seen the views after each frame)
+            which has also seen the views after each frame; for SF-CRF after the final CRF)
   eval labels GT EST --every K --depth DIR   for each of the three
 
 Seeds must be ones training never used (models/edgefusion_models/dataset.py: train 1..360,
@@ -107,14 +107,25 @@ def main():
         rows.append((name, "CNN", evaluate(ef, gt, os.path.join(out, "cnn", "labels"), args.every)))
         # The CRF's lattices take 588 bytes per surfel of capacity (docs/architecture.md): above the
         # board's 256 MB with the default pool, fine on the laptop this table is made on.
-        crf = ["--crf-every", str(args.crf_every), "--memory-budget-mb", "2000"]
+        # --crf-final: the CRF once more when the run ends, so "SF-CRF end" is the finished map after
+        # its last CRF (the rendered frames of "SF-CRF" all come before it and are not affected).
+        crf = ["--crf-every", str(args.crf_every), "--crf-final", "--memory-budget-mb", "2000"]
         for method, extra in (("SF", []), ("SF-CRF", crf)):
             print(f"{name}: {method}", file=sys.stderr)
             d = os.path.join(out, method.lower())
-            log = run([ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
-                       "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
-                       "--labels-final-out", os.path.join(d, "labels-end"), "--quiet"] + run_config + extra)
-            print("  " + " ".join(l for l in log.splitlines() if l.startswith("frames")), file=sys.stderr)
+            cmd = [ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
+                   "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
+                   "--labels-final-out", os.path.join(d, "labels-end"), "--quiet"] + run_config + extra
+            # A run whose outputs exist from the same command line (and the same binary) is reused.
+            marker = os.path.join(d, "done")
+            key = " ".join(cmd) + f" [{os.path.getmtime(ef)}]"
+            if os.path.exists(marker) and open(marker).read() == key:
+                print("  (outputs of the same command reused)", file=sys.stderr)
+            else:
+                log = run(cmd)
+                print("  " + " ".join(l for l in log.splitlines() if l.startswith("frames")), file=sys.stderr)
+                with open(marker, "w") as f:
+                    f.write(key)
             rows.append((name, method, evaluate(ef, gt, os.path.join(d, "labels"), args.every)))
             rows.append((name, method + " end", evaluate(ef, gt, os.path.join(d, "labels-end"), args.every)))
 
