@@ -2,9 +2,8 @@
 // DIR`): after the run, the recording is read a second time and each frame's view of the final map
 // is rendered at the pose the run estimated for it (trajectory.txt), the paper's "SemanticFusion
 // after the completed trajectory" (McCormac et al. ICRA 2017, Fig. 6, the qualitative NYUv2
-// results). `--labels-out` shows the map
-// as it was when the frame arrived (what a robot knows at that moment); this shows what the map
-// knows in the end, including the views from after the frame.
+// results). `--labels-out` shows the map as it was when the frame arrived (what a robot knows at
+// that moment); this shows what the map knows in the end, including the views from after the frame.
 //
 // Per frame (the run's own rules, so that the two outputs differ only in the map's state):
 //   resample to the working size (io/frame_resample.h, as the front stage does);
