@@ -1,6 +1,7 @@
 #include "final_labels.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <vector>
@@ -8,6 +9,7 @@
 #include "io/frame_resample.h"
 #include "io/label_image.h"
 #include "io/trajectory_io.h"
+#include "progress.h"
 #include "semantic/label_render.h"
 #include "slam/model_prediction.h"
 
@@ -69,6 +71,10 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
 
   const std::vector<TimedPose>& poses = trajectory->poses;
   const int32_t last_frame = static_cast<int32_t>(slam.frames() > 0 ? slam.frames() - 1 : 0);
+  int64_t expected = info.frame_count;
+  if (config.max_frames > 0 && (expected < 0 || config.max_frames < expected)) expected = config.max_frames;
+  Progress progress("final labels", expected, config.progress);
+  char line[64];
   FinalLabelCounts counts;
   std::size_t next_pose = 0, next_lost = 0;
   for (int64_t number = 0; config.max_frames < 0 || number < config.max_frames; ++number) {
@@ -76,6 +82,8 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
     if (!got.ok()) return got.take_error();
     if (!*got) break;
     ++counts.frames_read;
+    std::snprintf(line, sizeof line, "%lld images", static_cast<long long>(counts.images_written));
+    progress.update(counts.frames_read, line);
     // Poses and lost marks are in frame order: pass those of frames the run had and this reading lacks.
     const double t = input.timestamp;
     while (next_pose < poses.size() && poses[next_pose].timestamp < t - kTimestampToleranceS) ++next_pose;
@@ -103,6 +111,7 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
     EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(config.labels_final_out, working), rendered.view()));
     ++counts.images_written;
   }
+  progress.finish(counts.frames_read);
   return counts;
 }
 
