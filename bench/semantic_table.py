@@ -11,7 +11,7 @@ Every number comes from the `edgefusion` program:
             both runs also with --labels-final-out: after the run, the final map rendered into the
             same frames at the estimated poses ("SF end", "SF-CRF end": the map's final state,
             which has also seen the views after each frame; for SF-CRF after the final CRF)
-  eval labels GT EST --every K --depth DIR   for each of the three
+  eval labels GT EST --every K --depth DIR   for each of the five
 
 Seeds must be ones training never used (models/edgefusion_models/dataset.py: train 1..360,
 validation 9001..9012, test 7001..7024). Default 5001 5002 5003, 1200 frames each (over one lap of
