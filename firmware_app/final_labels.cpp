@@ -2,8 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <fstream>
 #include <vector>
 
 #include "io/frame_resample.h"
@@ -21,26 +19,6 @@ namespace {
 // microsecond; 2 us leaves room for the double's own rounding and is far below any frame interval.
 constexpr double kTimestampToleranceS = 2e-6;
 
-// The timestamps of the "# lost <timestamp> <reason>" lines the run wrote before a lost frame's pose.
-Result<std::vector<double>> lost_timestamps(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return error(ErrorCode::kIoError, "cannot read the trajectory '" + path + "'");
-  std::vector<double> out;
-  std::string line;
-  const std::string tag = "# lost ";
-  for (int number = 1; std::getline(in, line); ++number) {
-    if (line.compare(0, tag.size(), tag) != 0) continue;
-    const char* start = line.c_str() + tag.size();
-    char* end = nullptr;
-    const double t = std::strtod(start, &end);
-    if (end == start || !std::isfinite(t))
-      return error(ErrorCode::kInvalidArgument,
-                   path + ":" + std::to_string(number) + ": a '# lost' line without a timestamp");
-    out.push_back(t);
-  }
-  return out;
-}
-
 bool same_time(double a, double b) { return std::fabs(a - b) <= kTimestampToleranceS; }
 
 }  // namespace
@@ -48,10 +26,8 @@ bool same_time(double a, double b) { return std::fabs(a - b) <= kTimestampTolera
 Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSource& replay,
                                              const std::string& trajectory_path, const slam::SurfelSlam& slam,
                                              RunSemantics& semantics) {
-  auto trajectory = read_tum_trajectory(trajectory_path);
+  auto trajectory = read_tum_trajectory(trajectory_path);  // lost frames come marked (io/trajectory_io.h)
   if (!trajectory.ok()) return trajectory.take_error();
-  auto lost = lost_timestamps(trajectory_path);
-  if (!lost.ok()) return lost.take_error();
 
   // The whole map: the tracking prediction's active time window would hide what the run saw long ago.
   const slam::ModelPredictor& live = slam.predictor();
@@ -76,7 +52,7 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
   Progress progress("final labels", expected, config.progress);
   char line[64];
   FinalLabelCounts counts;
-  std::size_t next_pose = 0, next_lost = 0;
+  std::size_t next_pose = 0;
   for (int64_t number = 0; config.max_frames < 0 || number < config.max_frames; ++number) {
     auto got = replay.next(input);
     if (!got.ok()) return got.take_error();
@@ -84,12 +60,10 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
     ++counts.frames_read;
     std::snprintf(line, sizeof line, "%lld images", static_cast<long long>(counts.images_written));
     progress.update(counts.frames_read, line);
-    // Poses and lost marks are in frame order: pass those of frames the run had and this reading lacks.
+    // Poses are in frame order: pass those of frames the run had and this reading lacks.
     const double t = input.timestamp;
     while (next_pose < poses.size() && poses[next_pose].timestamp < t - kTimestampToleranceS) ++next_pose;
-    while (next_lost < lost->size() && (*lost)[next_lost] < t - kTimestampToleranceS) ++next_lost;
     const bool has_pose = next_pose < poses.size() && same_time(poses[next_pose].timestamp, t);
-    const bool was_lost = next_lost < lost->size() && same_time((*lost)[next_lost], t);
     if (number % config.labels_out_every != 0) continue;
     if (!has_pose) {
       ++counts.not_mapped;
@@ -98,7 +72,7 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
 
     resample_frame(input, working);
     EF_RETURN_IF_ERROR(semantics.segment(working, cnn));
-    if (was_lost) {
+    if (poses[next_pose].lost) {
       rendered.copy_from(cnn.labels.view());
       ++counts.from_cnn_only;
     } else {

@@ -222,13 +222,12 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
     add("map.ply class columns", cap * (sizeof(uint8_t) + sizeof(float)), "5 bytes (class id, probability) x capacity");
     if (!config.labels_final_out.empty()) {
       // firmware_app/final_labels.h, after the run: a source frame, a working frame, a CNN result,
-      // a predictor of the whole map and the rendered image, beside everything the run holds.
-      slam::PredictionOptions whole = pred;
-      whole.active_window_frames = 0;
+      // a predictor of the whole map (its size does not depend on the time window it drops) and the
+      // rendered image, beside everything the run holds.
       add("final label pass",
           px(src.w, src.h) * kFrameBytesPerPixel + px(w, h) * kFrameBytesPerPixel +
               out_px * static_cast<size_t>(classes) * sizeof(float) + px(w, h) +
-              slam::ModelPredictor::bytes_for(w, h, levels, whole) + px(w, h),
+              slam::ModelPredictor::bytes_for(w, h, levels, pred) + px(w, h),
           "after the run: frames at " + size_text(src.w, src.h) + " and " + size_text(w, h) +
               ", a CNN result, a predictor of the whole map, the rendering");
     }

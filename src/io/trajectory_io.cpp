@@ -48,10 +48,15 @@ Result<Trajectory> read_tum_trajectory(const std::string& path) {
   std::string line;
   std::string fields[8];
   int line_no = 0;
+  bool next_lost = false;  // a "# lost" line was read and no pose line since
   while (std::getline(in, line)) {
     ++line_no;
     std::size_t first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
+    if (first == std::string::npos) continue;
+    if (line[first] == '#') {
+      next_lost = next_lost || line.compare(first, 7, "# lost ") == 0;
+      continue;
+    }
     const int n = split_fields(line, fields, 8);
     if (n != 8) {
       return error(ErrorCode::kCorruptData, where(path, line_no) + "expected 8 fields "
@@ -73,7 +78,8 @@ Result<Trajectory> read_tum_trajectory(const std::string& path) {
                     traj.poses.back().timestamp);
       return error(ErrorCode::kCorruptData, where(path, line_no) + buf);
     }
-    traj.poses.push_back(TimedPose{v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
+    traj.poses.push_back(TimedPose{v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3])), next_lost});
+    next_lost = false;
   }
   if (in.bad()) return error(ErrorCode::kIoError, path + ": read failed after line " + std::to_string(line_no));
   return traj;

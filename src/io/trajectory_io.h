@@ -1,6 +1,8 @@
 // TUM RGB-D trajectory files: one pose per line, "timestamp tx ty tz qx qy qz qw", camera-to-world
 // (T_wc), timestamp in seconds, translation in metres, unit quaternion (Hamilton, w last).
-// Lines starting with '#' and blank lines are ignored.
+// Lines starting with '#' and blank lines are ignored, except that a line starting "# lost " (what
+// `edgefusion run` writes before the pose of a frame whose tracking was lost) marks the pose line
+// that follows it as lost.
 #pragma once
 
 #include <cstdio>
@@ -15,6 +17,7 @@ namespace ef {
 struct TimedPose {
   double timestamp = 0;  // seconds
   SE3 T_wc;              // camera to world; metres
+  bool lost = false;     // after a "# lost" line: tracking was lost, T_wc is the last good pose
 };
 
 struct Trajectory {

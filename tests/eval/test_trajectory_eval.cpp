@@ -253,6 +253,23 @@ TEST(TumReader, CommentsBlankLinesAndNormalisation) {
   EXPECT_NEAR(t->poses[1].T_wc.angle(), kPi, 1e-12);          // 180 degrees about z
 }
 
+// `edgefusion run` marks a lost frame with "# lost <timestamp> <reason>" just before its pose line.
+TEST(TumReader, LostMarkFlagsTheNextPoseOnly) {
+  const std::string p = write_text("tum_lost",
+                                   "# timestamp tx ty tz qx qy qz qw\n"
+                                   "1.000000 0 0 0 0 0 0 1\n"
+                                   "# lost 2.000000 too_few_points\n"
+                                   "2.000000 0 0 0 0 0 0 1\n"
+                                   "# lost-like comment\n"
+                                   "3.000000 0 0 0 0 0 0 1\n");
+  auto t = read_tum_trajectory(p);
+  ASSERT_TRUE(t.ok()) << to_string(t.error());
+  ASSERT_EQ(t->poses.size(), 3u);
+  EXPECT_FALSE(t->poses[0].lost);
+  EXPECT_TRUE(t->poses[1].lost);
+  EXPECT_FALSE(t->poses[2].lost);
+}
+
 void expect_error_at(const std::string& text, const std::string& test, const std::string& line_and_fault) {
   const std::string p = write_text(test, text);
   auto t = read_tum_trajectory(p);
