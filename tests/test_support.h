@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 #include <unistd.h>
+#include <vector>
 
 namespace ef::test {
 
@@ -36,11 +37,21 @@ inline constexpr bool kUnderEmulator =
 // Frames of a sequence test: `native`, or `emulated` under qemu-user.
 constexpr int frames_native_or_emulated(int native, int emulated) { return kUnderEmulator ? emulated : native; }
 
-// A fresh empty folder for one test's files, under the system temporary directory.
+// Scratch folders made during the running test. test_main.cpp's listener removes them when the
+// test passes; after a failure, or with EF_KEEP_TEST_FILES=1 set, it keeps them and prints where
+// they are. Without this every ctest run left its folders (about 100 MB) in /tmp.
+inline std::vector<std::filesystem::path>& scratch_dirs_of_running_test() {
+  static std::vector<std::filesystem::path> dirs;
+  return dirs;
+}
+
+// A fresh empty folder for one test's files, under the system temporary directory ($TMPDIR),
+// removed when the test ends (above).
 inline std::filesystem::path scratch_dir(const std::string& test_name) {
   auto dir = std::filesystem::temp_directory_path() / ("edgefusion-test-" + test_name + "-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  scratch_dirs_of_running_test().push_back(dir);
   return dir;
 }
 
