@@ -1,5 +1,6 @@
 #include "semantic/label_store.h"
 
+#include <array>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
@@ -103,18 +104,6 @@ void observation_from_probabilities(const float* probs, uint8_t* out) {
     const uint32_t index = (bits >> (23 - kMantissaBits)) - (kLowestExponent << kMantissaBits);
     out[c] = index < kCostTableSize ? table[index] : static_cast<uint8_t>(kLabelCostMax);
   }
-}
-
-LogitCostTable::LogitCostTable(float scale) {
-  for (int d = 0; d < 256; ++d) table_[static_cast<std::size_t>(d)] = cost_from_nats(double(scale) * d);
-}
-
-void LogitCostTable::observation(const int8_t* logits, uint8_t* out) const {
-  int qmax = -128;
-  for (int c = 0; c < kLabelClasses; ++c)
-    if (logits[c] > qmax) qmax = logits[c];
-  for (int c = 0; c < kLabelClasses; ++c) out[c] = table_[static_cast<std::size_t>(qmax - logits[c])];
-  out[14] = out[15] = kLabelCostMax;
 }
 
 }  // namespace ef::semantic

@@ -28,7 +28,6 @@
 // bytes set to 255, so they never win the minimum the update takes over a whole vector.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 
@@ -60,19 +59,5 @@ void label_summary(const uint8_t* stores, std::size_t n, uint8_t* class_id, floa
 // whose largest probability is not a normal finite float gives all-zero costs (an update that changes
 // nothing). The table is built on the first call (thread-safe, no heap).
 void observation_from_probabilities(const float* probs, uint8_t* out);
-
-// The faster exact path for int8 logits q_c with softmax input scale s (logit = s * q): then
-// -ln(p_c / p_max) = s * (q_max - q_c) exactly, so the cost is a table lookup on q_max - q_c (0..255).
-class LogitCostTable {
- public:
-  // scale: the logits' quantisation scale (nats per int8 step, > 0).
-  explicit LogitCostTable(float scale);
-  // logits: kLabelClasses int8 values -> 16 bytes, spare bytes 255.
-  void observation(const int8_t* logits, uint8_t* out) const;
-  uint8_t cost(int difference) const { return table_[static_cast<std::size_t>(difference)]; }
-
- private:
-  std::array<uint8_t, 256> table_{};
-};
 
 }  // namespace ef::semantic

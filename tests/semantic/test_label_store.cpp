@@ -172,29 +172,6 @@ TEST(LabelStore, ThreeConfidentViewsOutweighTwo) {
   EXPECT_NEAR(store[9] * kStep, 9.0, 5 * kStep / 2);  // 27 - 18 nats, five roundings of half a step
 }
 
-TEST(LabelStore, LogitTableIsExactSoftmaxRatio) {
-  const float s = kLabelCostStep;  // one int8 step = one cost unit
-  LogitCostTable table(s);
-  std::vector<int8_t> q = {10, -3, 20, 20, -128, 127, 0, 1, 2, 3, 4, 5, 6, 7};
-  uint8_t out[kLabelBytes];
-  table.observation(q.data(), out);
-  for (int c = 0; c < kLabelClasses; ++c) EXPECT_EQ(out[c], std::min(255, 127 - q[std::size_t(c)])) << c;
-  EXPECT_EQ(out[14], 255);
-  EXPECT_EQ(out[15], 255);
-  // Against the float path through the softmax.
-  const float s2 = 0.1f;
-  LogitCostTable t2(s2);
-  std::vector<int8_t> q2 = {10, -3, 20, 19, -20, 12, 0, 1, 2, 3, 4, 5, 6, 7};
-  double z = 0;
-  for (int8_t v : q2) z += std::exp(s2 * v);
-  Dist p(kLabelClasses);
-  for (int c = 0; c < kLabelClasses; ++c) p[std::size_t(c)] = float(std::exp(s2 * q2[std::size_t(c)]) / z);
-  uint8_t a[kLabelBytes], b[kLabelBytes];
-  t2.observation(q2.data(), a);
-  observation_from_probabilities(p.data(), b);
-  for (int c = 0; c < kLabelClasses; ++c) EXPECT_LE(std::abs(int(a[c]) - int(b[c])), 1) << c;  // float softmax rounding
-}
-
 // The observation table against the exact rounding with std::log: equal except within 0.004 units
 // of a half-integer (label_store.h), where it may be one off; degenerate pixels change nothing.
 TEST(LabelStore, ObservationTableMatchesExactRounding) {
