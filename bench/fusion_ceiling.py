@@ -31,8 +31,8 @@ import sys
 import cv2
 import numpy as np
 
-CLASSES = ["bed", "books", "ceiling", "chair", "floor", "furniture", "objects", "painting", "sofa", "table",
-           "tv", "wall", "window"]
+from semantic_table import CLASSES  # the 13 class names in id order 1..13 (bench/semantic_table.py)
+
 NUM_IDS = 14  # 0 = unknown, 1..13 the classes
 TUM_METRES_PER_UNIT = 1.0 / 5000.0
 
