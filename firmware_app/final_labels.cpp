@@ -23,27 +23,40 @@ bool same_time(double a, double b) { return std::fabs(a - b) <= kTimestampTolera
 
 }  // namespace
 
-Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSource& replay,
-                                             const std::string& trajectory_path, const slam::SurfelSlam& slam,
-                                             RunSemantics& semantics) {
-  auto trajectory = read_tum_trajectory(trajectory_path);  // lost frames come marked (io/trajectory_io.h)
-  if (!trajectory.ok()) return trajectory.take_error();
-
+Result<FinalLabelBuffers> FinalLabelBuffers::create(const RunConfig& config, const SourceInfo& recording,
+                                                    const slam::SurfelSlam& slam, const RunSemantics& semantics) {
   // The whole map: the tracking prediction's active time window would hide what the run saw long ago.
   const slam::ModelPredictor& live = slam.predictor();
   slam::PredictionOptions po = live.options();
   po.active_window_frames = 0;
   auto predictor = slam::ModelPredictor::create(live.intrinsics(), live.levels(), po);
   if (!predictor.ok()) return predictor.take_error();
+  FinalLabelBuffers b{std::move(*predictor), Frame{}, Frame{}, CnnResult{}, Image<uint8_t>{}};
+  b.input.allocate(recording.intrinsics.width, recording.intrinsics.height, recording.has_labels);
+  b.working.allocate(config.width, config.height, recording.has_labels);
+  semantics.allocate(b.cnn);
+  b.rendered.allocate(config.width, config.height);
+  return b;
+}
+
+std::size_t FinalLabelBuffers::bytes() const {
+  const auto frame_bytes = [](const Frame& f) {
+    return f.color.size() * sizeof(Rgb8) + f.depth.size() * sizeof(float) + f.labels.size() * sizeof(uint8_t);
+  };
+  return predictor.bytes() + frame_bytes(input) + frame_bytes(working) + cnn.probabilities.size() * sizeof(float) +
+         cnn.labels.size() + rendered.size();
+}
+
+Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSource& replay,
+                                             const std::string& trajectory_path, const slam::SurfelSlam& slam,
+                                             RunSemantics& semantics) {
+  auto trajectory = read_tum_trajectory(trajectory_path);  // lost frames come marked (io/trajectory_io.h)
+  if (!trajectory.ok()) return trajectory.take_error();
 
   const SourceInfo& info = replay.info();
-  Frame input, working;
-  input.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
-  working.allocate(config.width, config.height, info.has_labels);
-  CnnResult cnn;
-  semantics.allocate(cnn);
-  Image<uint8_t> rendered;
-  rendered.allocate(config.width, config.height);
+  auto buffers = FinalLabelBuffers::create(config, info, slam, semantics);
+  if (!buffers.ok()) return buffers.take_error();
+  auto& [predictor, input, working, cnn, rendered] = *buffers;
 
   const std::vector<TimedPose>& poses = trajectory->poses;
   const int32_t last_frame = static_cast<int32_t>(slam.frames() > 0 ? slam.frames() - 1 : 0);
@@ -76,10 +89,10 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
       rendered.copy_from(cnn.labels.view());
       ++counts.from_cnn_only;
     } else {
-      EF_RETURN_IF_ERROR(predictor->predict(slam.pool(), poses[next_pose].T_wc, last_frame,
+      EF_RETURN_IF_ERROR(predictor.predict(slam.pool(), poses[next_pose].T_wc, last_frame,
                                             slam.tracking_min_confidence()));
-      auto r = semantic::render_labels(*predictor, slam.pool(), cnn.labels.view(), rendered.view(),
-                                       config.label_visibility ? working.depth.view() : ImageView<const float>());
+      auto r = semantic::render_labels(predictor, slam.pool(), cnn.labels.view(), rendered.view(),
+                                      config.label_visibility ? working.depth.view() : ImageView<const float>());
       if (!r.ok()) return r.take_error();
     }
     EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(config.labels_final_out, working), rendered.view()));

@@ -17,10 +17,11 @@
 // frame the run never mapped (it stopped early, or the recording had a corrupt frame) is skipped
 // and counted, never given another frame's pose.
 //
-// Memory: allocated once at the start of the pass (a frame at the source's and the working size,
-// one CNN result, a predictor and the rendered image: 10.7 MB for a 640x480 source at 320x240, the
-// memory plan's "final label pass"); nothing per frame except inside libpng. It runs after the run's
-// outputs are written, so a failure here never loses them.
+// Memory: FinalLabelBuffers, allocated once at the start of the pass (a frame at the source's and the
+// working size, one CNN result, a predictor and the rendered image: 10.7 MB for a 640x480 source at
+// 320x240, the memory plan's "final label pass", which tests/app/test_config.cpp checks against
+// bytes()); nothing per frame except inside libpng. It runs after the run's outputs are written, so
+// a failure here never loses them.
 #pragma once
 
 #include <cstdint>
@@ -33,6 +34,21 @@
 #include "slam/surfel_slam.h"
 
 namespace ef::app {
+
+// What the pass allocates at its start, sized from the run and the recording.
+struct FinalLabelBuffers {
+  slam::ModelPredictor predictor;  // the run's prediction options without the active time window
+  Frame input;                     // a frame at the recording's size
+  Frame working;                   // resampled to the run's working size
+  CnnResult cnn;                   // the fallback labels (RunSemantics::allocate)
+  Image<uint8_t> rendered;         // class ids at the working size
+
+  // Errors: those of ModelPredictor::create.
+  static Result<FinalLabelBuffers> create(const RunConfig& config, const SourceInfo& recording,
+                                          const slam::SurfelSlam& slam, const RunSemantics& semantics);
+  // Bytes of the buffers above (the predictor's by ModelPredictor::bytes()).
+  std::size_t bytes() const;
+};
 
 struct FinalLabelCounts {
   int64_t frames_read = 0;     // frames of the second reading

@@ -12,6 +12,7 @@
 #include "app/cli_test_util.h"
 #include "core/intrinsics.h"
 #include "firmware_app/args.h"
+#include "firmware_app/final_labels.h"
 #include "firmware_app/memory_plan.h"
 #include "firmware_app/model_paths.h"
 #include "firmware_app/run_config.h"
@@ -450,6 +451,19 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   // Within 1%: semantic/dense_crf.* is young; a layout change there should show up here.
   EXPECT_NEAR(double(plan->bytes_of("dense crf")), double(crf->bytes()), 0.01 * double(crf->bytes()))
       << plan->table();
+
+  // The final label pass (firmware_app/final_labels.h) over this run's map, after the run.
+  RunConfig with_final = c;
+  with_final.labels_final_out = (fs::path(with_out.out_dir) / "final").string();
+  auto final_plan = plan_memory(with_final);
+  ASSERT_TRUE(final_plan.ok()) << to_string(final_plan.error());
+  EXPECT_EQ(plan->bytes_of("final label pass"), 0u);  // only planned when asked for
+  StageStats semantic_stats;
+  auto semantics = RunSemantics::create(with_final, working, semantic_stats);
+  ASSERT_TRUE(semantics.ok()) << to_string(semantics.error());
+  auto final_pass = FinalLabelBuffers::create(with_final, (*source)->info(), *slam, **semantics);
+  ASSERT_TRUE(final_pass.ok()) << to_string(final_pass.error());
+  EXPECT_EQ(final_plan->bytes_of("final label pass"), final_pass->bytes()) << final_plan->table();
 }
 
 TEST(PlanMemory, OverBudgetIsRefusedWithTheNumbers) {
