@@ -18,11 +18,12 @@ validation 9001..9012, test 7001..7024). Default 5001 5002 5003, 1200 frames eac
 the room's loop, so the end of each sequence revisits its start). --rooms takes the built-in rooms
 instead (synthetic:ROOM, e.g. living_room bedroom office kitchen library: fixed layouts that training,
 which only drew random rooms, never used); --trajectory robot the planar robot path instead of the
-hand-held loop.
+hand-held loop. --model runs another segmentation model (.efm) in place of the shipped one, for
+the CNN row and both runs (the work folder's outputs are then that model's: use a folder per model).
 
   /usr/bin/python3 bench/semantic_table.py --edgefusion build/release/firmware_app/edgefusion \\
       --work /tmp/semantic-table [--seeds 5001 5002 5003 | --rooms ROOM...] [--trajectory loop|robot] \\
-      [--frames 1200] [--every 10] [--crf-every 500]
+      [--frames 1200] [--every 10] [--crf-every 500] [--model FILE.efm]
 Prints a Markdown table (per sequence and the mean of the sequences).
 """
 import argparse
@@ -72,9 +73,12 @@ def main():
                     help="configuration file given to every `edgefusion run` (e.g. mapping.index_map_scale)")
     ap.add_argument("--sequences", nargs="*", default=[],
                     help="existing TUM folders with labels/ to use instead of rendering seeds")
+    ap.add_argument("--model", default="",
+                    help="segmentation model (.efm) for the CNN and both runs; default the shipped one")
     args = ap.parse_args()
     ef = args.edgefusion
     run_config = ["--config", args.run_config] if args.run_config else []
+    model = ["--model", args.model] if args.model else []
     for s in args.seeds:
         if s in HELD_OUT_FORBIDDEN:
             sys.exit(f"semantic_table: seed {s} was used in training, validation or the model's test set")
@@ -103,7 +107,7 @@ def main():
         out = os.path.join(args.work, "out-" + name)
         print(f"{name}: single-frame CNN", file=sys.stderr)
         run([ef, "segment", "--source", "tum:" + gt, "--out", os.path.join(out, "cnn"), "--every", str(args.every),
-             "--quiet"])
+             "--quiet"] + model)
         rows.append((name, "CNN", evaluate(ef, gt, os.path.join(out, "cnn", "labels"), args.every)))
         # The CRF's lattices take 588 bytes per surfel of capacity (docs/architecture.md): above the
         # board's 256 MB with the default pool, fine on the laptop this table is made on.
@@ -115,7 +119,7 @@ def main():
             d = os.path.join(out, method.lower())
             cmd = [ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
                    "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
-                   "--labels-final-out", os.path.join(d, "labels-end"), "--quiet"] + run_config + extra
+                   "--labels-final-out", os.path.join(d, "labels-end"), "--quiet"] + run_config + model + extra
             # A run whose outputs exist from the same command line (and the same binary) is reused.
             marker = os.path.join(d, "done")
             key = " ".join(cmd) + f" [{os.path.getmtime(ef)}]"
