@@ -40,10 +40,7 @@ Result<FinalLabelBuffers> FinalLabelBuffers::create(const RunConfig& config, con
 }
 
 std::size_t FinalLabelBuffers::bytes() const {
-  const auto frame_bytes = [](const Frame& f) {
-    return f.color.size() * sizeof(Rgb8) + f.depth.size() * sizeof(float) + f.labels.size() * sizeof(uint8_t);
-  };
-  return predictor.bytes() + frame_bytes(input) + frame_bytes(working) + cnn.probabilities.size() * sizeof(float) +
+  return predictor.bytes() + input.bytes() + working.bytes() + cnn.probabilities.size() * sizeof(float) +
          cnn.labels.size() + rendered.size();
 }
 
@@ -90,7 +87,7 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
       ++counts.from_cnn_only;
     } else {
       EF_RETURN_IF_ERROR(predictor.predict(slam.pool(), poses[next_pose].T_wc, last_frame,
-                                            slam.tracking_min_confidence()));
+                                           slam.tracking_min_confidence()));
       auto r = semantic::render_labels(predictor, slam.pool(), cnn.labels.view(), rendered.view(),
                                       config.label_visibility ? working.depth.view() : ImageView<const float>());
       if (!r.ok()) return r.take_error();

@@ -30,10 +30,6 @@ double peak_rss_bytes() {
   return static_cast<double>(u.ru_maxrss) * 1024.0;
 }
 
-std::size_t frame_bytes(const Frame& f) {
-  return f.color.size() * sizeof(Rgb8) + f.depth.size() * sizeof(float) + f.labels.size() * sizeof(uint8_t);
-}
-
 }  // namespace
 
 Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config, FrameSource& source,
@@ -71,7 +67,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   Status slot_status;
   const auto init = [&](PreparedFrame& slot) {
     if (Status s = p->front_->allocate(slot); !s.ok() && slot_status.ok()) slot_status = s;
-    p->slot_bytes_ = frame_bytes(slot.working) + (slot.pre ? slot.pre->bytes() : 0) +
+    p->slot_bytes_ = slot.working.bytes() + (slot.pre ? slot.pre->bytes() : 0) +
                      slot.cnn.probabilities.size() * sizeof(float) + slot.cnn.labels.size();
   };
   p->ring_ = std::make_unique<StageRing<PreparedFrame>>(config.threads == 1 ? 1 : config.prepared_slots, kStages, init);

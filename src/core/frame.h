@@ -1,6 +1,7 @@
 // One RGB-D frame as every source delivers it and as the frame ring stores it.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -29,6 +30,10 @@ struct Frame {
     depth.allocate(width, height);
     if (with_labels) labels.allocate(width, height);
     name.reserve(kMaxFrameName);
+  }
+  // Bytes of the three images (the memory plan counts frames by this).
+  std::size_t bytes() const {
+    return color.size() * sizeof(Rgb8) + depth.size() * sizeof(float) + labels.size() * sizeof(uint8_t);
   }
 };
 
