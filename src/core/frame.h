@@ -31,7 +31,7 @@ struct Frame {
     if (with_labels) labels.allocate(width, height);
     name.reserve(kMaxFrameName);
   }
-  // Bytes of the three images (the memory plan counts frames by this).
+  // Bytes of the three images (what tests check the memory plan's frame figures against).
   std::size_t bytes() const {
     return color.size() * sizeof(Rgb8) + depth.size() * sizeof(float) + labels.size() * sizeof(uint8_t);
   }
