@@ -40,8 +40,7 @@ Result<FinalLabelBuffers> FinalLabelBuffers::create(const RunConfig& config, con
 }
 
 std::size_t FinalLabelBuffers::bytes() const {
-  return predictor.bytes() + input.bytes() + working.bytes() + cnn.probabilities.size() * sizeof(float) +
-         cnn.labels.size() + rendered.size();
+  return predictor.bytes() + input.bytes() + working.bytes() + cnn.bytes() + rendered.size();
 }
 
 Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSource& replay,

@@ -67,8 +67,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   Status slot_status;
   const auto init = [&](PreparedFrame& slot) {
     if (Status s = p->front_->allocate(slot); !s.ok() && slot_status.ok()) slot_status = s;
-    p->slot_bytes_ = slot.working.bytes() + (slot.pre ? slot.pre->bytes() : 0) +
-                     slot.cnn.probabilities.size() * sizeof(float) + slot.cnn.labels.size();
+    p->slot_bytes_ = slot.working.bytes() + (slot.pre ? slot.pre->bytes() : 0) + slot.cnn.bytes();
   };
   p->ring_ = std::make_unique<StageRing<PreparedFrame>>(config.threads == 1 ? 1 : config.prepared_slots, kStages, init);
   if (!slot_status.ok()) return slot_status.error();

@@ -54,6 +54,8 @@ struct CnnResult {
   Image<uint8_t> labels;             // its class ids at the working size (the rendering's fallback)
   double segment_ms = 0;             // time the CNN took, milliseconds
   semantic::ProbabilityView view() const { return {probabilities.data(), height, width, classes}; }
+  // Bytes of the probabilities and the class ids (what allocate() sized).
+  std::size_t bytes() const { return probabilities.size() * sizeof(float) + labels.size(); }
 };
 
 class RunSemantics {
