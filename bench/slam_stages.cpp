@@ -1,9 +1,10 @@
 // Times SurfelSlam per stage on a whole sequence, replayed exactly as `edgefusion run` replays it:
 // open_source(URI), each frame resampled to the working resolution (resample_frame), then
 // SurfelSlam::process with the default options (those of `edgefusion run` without a config file).
-//   bench_slam_stages [--source URI] [--frames N] [--resolution WxH] [--warmup N]
+//   bench_slam_stages [--source URI] [--frames N] [--resolution WxH] [--warmup N] [--associate tracked|previous]
 // Defaults: the 7-Scenes redkitchen sequence of the shared data when present, else
-// synthetic:?frames=1000; every frame; 320x240; 10 warm-up frames.
+// synthetic:?frames=1000; every frame; 320x240; 10 warm-up frames; fusion associating through an
+// index map at the tracked pose (SurfelSlamOptions::associate_at_tracked_pose; previous = false).
 // Prints the CPU, the ISA paths in use, then per stage (preprocess, track, fuse, predict, their sum,
 // process() as a whole) the median and p95 milliseconds over the frames after the warm-up (wall
 // clock, SlamFrameResult::timings; track over frames after the first, fuse over fused frames), the
@@ -90,10 +91,12 @@ int usage(const char* why) {
   if (why) std::fprintf(stderr, "bench_slam_stages: %s\n", why);
   std::fprintf(stderr,
                "usage: bench_slam_stages [--source URI] [--frames N] [--resolution WxH] [--warmup N]\n"
+               "                         [--associate tracked|previous]\n"
                "  --source URI       default %s\n"
                "  --frames N         frames to process, default every frame of the source\n"
                "  --resolution WxH   working resolution, default 320x240\n"
-               "  --warmup N         first frames left out of the stage statistics, default 10\n",
+               "  --warmup N         first frames left out of the stage statistics, default 10\n"
+               "  --associate WHERE  fusion's index map: at the tracked pose (default) or the previous one\n",
                default_source().c_str());
   return 2;
 }
@@ -104,6 +107,7 @@ int main(int argc, char** argv) {
   std::string uri;
   int64_t max_frames = -1;
   int width = 320, height = 240, warmup = 10;
+  ef::slam::SurfelSlamOptions options;
   for (int i = 1; i < argc; ++i) {
     const std::string opt = argv[i];
     if (opt == "--help" || opt == "-h") {
@@ -122,6 +126,10 @@ int main(int argc, char** argv) {
       const long w = std::strtol(v, &end, 10);
       if (*end || w < 0) return usage("--warmup wants an integer >= 0");
       warmup = static_cast<int>(w);
+    } else if (opt == "--associate") {
+      if (std::strcmp(v, "tracked") != 0 && std::strcmp(v, "previous") != 0)
+        return usage("--associate wants tracked or previous");
+      options.associate_at_tracked_pose = std::strcmp(v, "tracked") == 0;
     } else if (opt == "--resolution") {
       char x = 0, extra = 0;
       if (std::sscanf(v, "%d%c%d%c", &width, &x, &height, &extra) != 3 || x != 'x' || width < 16 || height < 16)
@@ -145,7 +153,7 @@ int main(int argc, char** argv) {
   input.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
   working.allocate(width, height, info.has_labels);
   const ef::Intrinsics working_k = info.intrinsics.scaled_to(width, height);
-  auto slam_or = ef::slam::SurfelSlam::create(working_k);
+  auto slam_or = ef::slam::SurfelSlam::create(working_k, options);
   if (!slam_or.ok()) {
     std::fprintf(stderr, "bench_slam_stages: %s\n", ef::to_string(slam_or.error()).c_str());
     return 2;
@@ -158,15 +166,16 @@ int main(int argc, char** argv) {
               ef::detected_cpu_features().describe().c_str(), ef::kernels::track_rows_selected(),
               ef::kernels::reduce_normal_equations_selected(), ef::kernels::splat_disc_selected(),
               ef::kernels::depth_u16_to_metres_selected());
-  std::printf("source: %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f), warm-up %d frames\n", uri.c_str(),
-              info.intrinsics.width, info.intrinsics.height,
+  std::printf("source: %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f), warm-up %d frames, fusion "
+              "associating at the %s pose\n",
+              uri.c_str(), info.intrinsics.width, info.intrinsics.height,
               info.frame_count >= 0 ? std::to_string(info.frame_count).c_str() : "unknown", width, height,
-              working_k.fx, warmup);
+              working_k.fx, warmup, options.associate_at_tracked_pose ? "tracked" : "previous");
   std::fflush(stdout);
 
   std::vector<double> pre_ms, track_ms, fuse_ms, predict_ms, sum_ms, process_ms, cpu_ms, input_ms;
   // Parts of fuse (fused frames) and predict, from FusionStats and PredictionTimings.
-  std::vector<double> associate_ms, clean_ms, create_ms, reorder_ms, clear_ms, render_ms, resolve_ms, pyramid_ms;
+  std::vector<double> index_ms, associate_ms, clean_ms, create_ms, reorder_ms, clear_ms, render_ms, resolve_ms, pyramid_ms;
   int64_t reorders = 0;
   std::vector<ef::TimedPose> estimate, reference;
   ef::slam::SlamFrameResult r;
@@ -197,6 +206,7 @@ int main(int argc, char** argv) {
       if (frames > 0) track_ms.push_back(t.track_ms);  // frame 0 has nothing to track
       if (r.fused) {
         fuse_ms.push_back(t.fuse_ms);
+        index_ms.push_back(t.index_ms);
         associate_ms.push_back(r.fusion.associate_ms);
         clean_ms.push_back(r.fusion.clean_ms);
         create_ms.push_back(r.fusion.create_ms);
@@ -235,6 +245,7 @@ int main(int argc, char** argv) {
   row("preprocess", pre_ms);
   row("track", track_ms);
   row("fuse (fused frames)", fuse_ms);
+  row("  index map at the tracked pose", index_ms);
   row("  associate", associate_ms);
   row("  clean", clean_ms);
   row("  create", create_ms);

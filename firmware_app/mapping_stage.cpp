@@ -13,6 +13,7 @@ slam::SurfelSlamOptions slam_options(const RunConfig& config) {
   o.tracker.rgb_weight = config.rgb_weight;
   o.preprocess.depth_cutoff_m = config.depth_cutoff_m;
   o.prediction.index_map_scale = config.index_map_scale;
+  o.associate_at_tracked_pose = config.associate_at_tracked_pose;
   o.own_preprocessor = false;  // the front step preprocesses, into each slot's own Preprocessor
   return o;
 }

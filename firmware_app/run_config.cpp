@@ -51,6 +51,10 @@ constexpr OptionDoc kOptions[] = {
     {"mapping.index_map_scale", "index_map_scale",
      "index map cells per working pixel along each axis, 1..4; 4 = ElasticFusion's, slower for the same "
      "accuracy at 320x240 (docs/results.md); default 1"},
+    {"mapping.associate_at_tracked_pose", "associate_at_tracked_pose",
+     "fusion associates each frame through an index map rendered at its tracked pose (ElasticFusion); "
+     "false = the previous pose's, one render less per frame but duplicate surfels wherever known surface "
+     "enters the view (docs/results.md); default true"},
     {"labels.enabled", "labels", "CNN segmentation + Bayesian label fusion; false = geometry only; default true"},
     {"labels.model", "model", ".efm segmentation model; default the shipped models/edgefusion-seg.efm"},
     {"labels.every", "label_every", "frames between CNN label updates, 1..1000000; default 10 (the paper's)"},
@@ -171,6 +175,7 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "mapping.rgb_weight") return number_text(c.rgb_weight);
   if (path == "mapping.depth_cutoff_m") return number_text(c.depth_cutoff_m);
   if (path == "mapping.index_map_scale") return std::to_string(c.index_map_scale);
+  if (path == "mapping.associate_at_tracked_pose") return bool_text(c.associate_at_tracked_pose);
   if (path == "labels.enabled") return bool_text(c.labels);
   if (path == "labels.model") return c.model.empty() ? "" : quoted(c.model);
   if (path == "labels.every") return std::to_string(c.label_every);
@@ -367,7 +372,7 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     else if (path == "gpio.button_line") config.gpio.button.offset = static_cast<unsigned>(*v);
     else config.gpio.debounce_ms = static_cast<int>(*v);
   } else if (path == "progress" || path == "map" || path == "realtime" || path == "labels.enabled" ||
-             path == "labels.visibility" ||
+             path == "labels.visibility" || path == "mapping.associate_at_tracked_pose" ||
              path == "crf.final" || path == "gpio.led_active_low" || path == "gpio.button_active_low" ||
              path == "gpio.optional") {
     bool v = false;
@@ -379,6 +384,7 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     else if (path == "realtime") config.realtime = v;
     else if (path == "labels.enabled") config.labels = v;
     else if (path == "labels.visibility") config.label_visibility = v;
+    else if (path == "mapping.associate_at_tracked_pose") config.associate_at_tracked_pose = v;
     else if (path == "gpio.led_active_low") config.gpio.led.active_low = v;
     else if (path == "gpio.button_active_low") config.gpio.button.active_low = v;
     else if (path == "gpio.optional") config.gpio.optional = v;

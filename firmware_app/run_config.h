@@ -44,6 +44,8 @@ struct RunConfig {
   double rgb_weight = 0.25;             // tracking: relative weight of the photometric term (>= 0)
   float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres (> 0)
   int index_map_scale = 1;              // index map cells per working pixel along each axis (1..4)
+  bool associate_at_tracked_pose = true;  // fusion's index map at the tracked pose (false: the
+                                          // previous pose's; SurfelSlamOptions)
   // Semantics (SemanticFusion), section `labels`: the CNN every N-th frame, Bayesian label fusion
   // into the surfels, rendered label images.
   bool labels = true;                   // segment and fuse labels; false = geometry only

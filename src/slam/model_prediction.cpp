@@ -173,14 +173,7 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
   return predict(pool, T_world_cam, frame_index, options_.stable_confidence);
 }
 
-Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index,
-                               float tracking_min_confidence) {
-  if (!(tracking_min_confidence >= 0.0f) || !std::isfinite(tracking_min_confidence))
-    return error(ErrorCode::kInvalidArgument, "ModelPredictor::predict: tracking_min_confidence " +
-                                                  std::to_string(tracking_min_confidence) + " must be finite and >= 0");
-  Clock::time_point t = Clock::now();
-  const Clock::time_point start = t;
-
+ModelPredictor::Pose ModelPredictor::make_pose(const SE3& T_world_cam, float min_confidence, int32_t oldest_frame) {
   Pose pose;
   const SE3 T_cw = T_world_cam.inverse();
   const Eigen::Matrix3d R = T_cw.rotation_matrix();
@@ -189,18 +182,32 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
     pose.t[i] = static_cast<float>(T_cw.translation()(i));
     pose.c[i] = static_cast<float>(T_world_cam.translation()(i));
   }
-  pose.min_confidence = tracking_min_confidence;
+  pose.min_confidence = min_confidence;
+  pose.oldest_frame = oldest_frame;
+  return pose;
+}
+
+Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index,
+                               float tracking_min_confidence) {
+  if (!(tracking_min_confidence >= 0.0f) || !std::isfinite(tracking_min_confidence))
+    return error(ErrorCode::kInvalidArgument, "ModelPredictor::predict: tracking_min_confidence " +
+                                                  std::to_string(tracking_min_confidence) + " must be finite and >= 0");
+  Clock::time_point t = Clock::now();
+  const Clock::time_point start = t;
+
   // In 64 bits: frame_index - window may be below INT32_MIN.
   const int64_t oldest =
       options_.active_window_frames == 0 ? INT32_MIN : static_cast<int64_t>(frame_index) - options_.active_window_frames;
-  pose.oldest_frame = static_cast<int32_t>(std::max<int64_t>(oldest, INT32_MIN));
+  const Pose pose =
+      make_pose(T_world_cam, tracking_min_confidence, static_cast<int32_t>(std::max<int64_t>(oldest, INT32_MIN)));
 
   counters_ = PredictionCounters{};
+  maps_pose_ = T_world_cam;
   index_map_.T_world_cam = T_world_cam;
-  clear();
+  clear_index_map();
+  clear_tracking_maps();
   timings_.clear_ms = lap_ms(t);
-  render(pool, pose);
-  index_map_.surfels_drawn = counters_.index_surfels;
+  render(pool, pose, counters_);
   timings_.render_ms = lap_ms(t);
   resolve(pool, pose);
   timings_.resolve_ms = lap_ms(t);
@@ -218,10 +225,23 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
   return Status::success();
 }
 
-void ModelPredictor::clear() {
+void ModelPredictor::render_index_map(const SurfelPool& pool, const SE3& T_world_cam) {
+  // No surfel reaches an infinite confidence, so none is a tracking candidate: render() draws no disc
+  // and leaves the tracking maps as the last predict() made them.
+  const Pose pose = make_pose(T_world_cam, kInf, INT32_MIN);
+  index_map_.T_world_cam = T_world_cam;
+  clear_index_map();
+  PredictionCounters counters;
+  render(pool, pose, counters);
+}
+
+void ModelPredictor::clear_index_map() {
   // id -1 is all-ones bytes and depth 0.0f all-zero bytes: plain memsets.
   std::memset(index_map_.id.data(), 0xFF, index_map_.id.size() * sizeof(int32_t));
   std::memset(index_map_.depth.data(), 0, index_map_.depth.size() * sizeof(float));
+}
+
+void ModelPredictor::clear_tracking_maps() {
   std::memset(winner_.data(), 0xFF, winner_.size() * sizeof(int32_t));
   Image<float>& key = level_[0].depth;
   std::fill(key.data(), key.data() + key.size(), kInf);
@@ -386,7 +406,7 @@ void setup_discs(const Block& b, const float* __restrict wnx, const float* __res
 
 }  // namespace
 
-void ModelPredictor::render(const SurfelPool& pool, const Pose& pose) {
+void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, PredictionCounters& counters) {
   const Intrinsics& ki = index_map_.intrinsics;
   const float s = static_cast<float>(index_map_.scale);
   const float cap = options_.max_splat_radius_px;
@@ -503,9 +523,10 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose) {
       kernels::splat_disc(d, ray_x_.data(), ray_y_.data(), key, winner_.data(), image_width);
     }
   }
-  counters_.index_surfels = drawn;
-  counters_.tracking_candidates = candidates;
-  counters_.splatted_surfels = splatted;
+  index_map_.surfels_drawn = drawn;
+  counters.index_surfels = drawn;
+  counters.tracking_candidates = candidates;
+  counters.splatted_surfels = splatted;
 }
 
 // Level 0 from the winners: vertex = z (ray_x, ray_y, 1) with z = (n . p) / (n . d) the depth of the

@@ -175,7 +175,14 @@ class ModelPredictor {
   Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index);
   Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index, float tracking_min_confidence);
 
-  // The index map of the last predict() (ids valid until the pool next removes a surfel).
+  // Renders only the index map, at T_world_cam (the tracking maps stay those of the last predict()):
+  // fusion associates a tracked frame through the map rendered at its own pose (ElasticFusion),
+  // which costs the transform and scatter of the pool (about a fifth of predict(): bench/slam_stages)
+  // instead of a whole prediction. No heap allocation.
+  void render_index_map(const SurfelPool& pool, const SE3& T_world_cam);
+
+  // The index map of the last predict() or render_index_map() (its T_world_cam says which pose; ids
+  // valid until the pool next removes a surfel).
   const IndexMap& index_map() const { return index_map_; }
   // The predicted maps as the tracker's reference pyramid (valid until the next predict()); every
   // level has intensity and gradient views.
@@ -189,8 +196,8 @@ class ModelPredictor {
   ImageView<const float> depth() const { return level_[0].depth.view(); }
   ImageView<const Rgb8> color() const { return color_.view(); }
   ImageView<const int32_t> surfel_ids() const { return winner_.view(); }
-  // The pose of the last predict() (camera to world); identity before the first.
-  const SE3& pose() const { return index_map_.T_world_cam; }
+  // The pose of the last predict(), the tracking maps' (camera to world); identity before the first.
+  const SE3& pose() const { return maps_pose_; }
 
   const PredictionCounters& counters() const { return counters_; }
   const PredictionTimings& timings() const { return timings_; }
@@ -198,9 +205,12 @@ class ModelPredictor {
 
  private:
   ModelPredictor() = default;
-  struct Pose;  // the float camera transform of one predict() call (model_prediction.cpp)
-  void clear();
-  void render(const SurfelPool& pool, const Pose& pose);
+  struct Pose;  // the float camera transform of one render (model_prediction.cpp)
+  static Pose make_pose(const SE3& T_world_cam, float min_confidence, int32_t oldest_frame);
+  void clear_index_map();
+  void clear_tracking_maps();
+  // Index map, and the discs of the tracking candidates (none when pose.min_confidence is infinite).
+  void render(const SurfelPool& pool, const Pose& pose, PredictionCounters& counters);
   void resolve(const SurfelPool& pool, const Pose& pose);
   void vertex_normal(int l);
   void downsample_intensity(int l);
@@ -211,6 +221,7 @@ class ModelPredictor {
   int levels_ = 0;
   PredictedLevel level_[kTrackerMaxLevels];
   IndexMap index_map_;
+  SE3 maps_pose_;           // the pose of the last predict()
   // level_[0].depth holds, while rendering, the visibility key z (1 + tie e^2 / r^2) of the disc
   // owning each pixel (+inf = none); resolve() replaces it by the depth.
   Image<int32_t> winner_;   // level 0: the surfel owning each pixel, -1 = none

@@ -40,6 +40,8 @@ std::string SurfelSlamOptions::describe() const {
   s << "# preprocess\n" << preprocess.describe() << "# tracker\n" << tracker.describe() << "# prediction\n"
     << prediction.describe() << "# fusion\n" << fusion.describe() << "# pool\n" << pool.describe()
     << "# spatial order\n" << spatial_order.describe()
+    << "associate_at_tracked_pose: " << (associate_at_tracked_pose ? "true" : "false")
+    << "  # fusion associates through an index map at the tracked pose (false: the previous pose's)\n"
     << "constant_velocity_guess: " << (constant_velocity_guess ? "true" : "false")
     << "  # initial guess: last pose (false) or constant velocity (true)\n"
     << "bootstrap_confidence_per_frame: " << bootstrap_confidence_per_frame
@@ -136,8 +138,13 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
   result->T_world_cam = T_world_cur;
 
   if (!result->lost) {
-    // Fuse through the index map rendered at the last good pose, then predict at the new pose.
+    // Fuse through an index map at the tracked pose (or the last prediction's, at the last good
+    // pose), then predict at the new pose.
     t0 = Clock::now();
+    if (options_.associate_at_tracked_pose && fused_frames_ > 0) {
+      predictor_.render_index_map(pool_, T_world_cur);
+      result->timings.index_ms = ms_since(t0);
+    }
     EF_RETURN_IF_ERROR(fusion_.fuse(pre, frame.color.view(), T_world_cur, predictor_.index_map(), frame_index,
                                     &pool_, &result->fusion));
     if (order_.due(fused_frames_)) {

@@ -6,7 +6,8 @@
 //                          the pose of the last tracked frame (slam/model_prediction.h), the guess
 //                          is "no motion" (ElasticFusion) or constant velocity (option)
 //           ──fuse───────> the surfel pool (slam/surfel_fusion.h), associating through the index map
-//                          rendered at the last tracked pose (no second render per frame)
+//                          rendered at T_world_cam(k) just before (ElasticFusion; option
+//                          associate_at_tracked_pose)
 //           ──reorder────> every 30th fused frame, the pool regrouped by space (slam/spatial_order.h)
 //           ──predict────> model maps + index map at T_world_cam(k), for frame k+1
 //
@@ -45,6 +46,14 @@ struct SurfelSlamOptions {
   SpatialOrderOptions spatial_order;
   // Pose of the first frame, camera to world (metres). Default identity.
   SE3 initial_pose;
+  // Fusion's data association: true = through an index map rendered at the frame's tracked pose
+  // (ModelPredictor::render_index_map, ElasticFusion's order); false = through the index map of the
+  // last prediction, rendered at the previous pose, which saves that render but sees nothing of the
+  // map outside the previous view: surface entering the image at its border becomes new surfels
+  // even where the map already holds it (duplicates on every revisit). Measured on 8 synthetic
+  // 1200-frame loops (docs/results.md, SLAM): false leaves 11-49% more surfels in the map at the
+  // end, for the same trajectory error.
+  bool associate_at_tracked_pose = true;
   // Initial guess of each frame's pose: false = the last tracked pose (ElasticFusion), true = the last
   // pose times the last inter-frame motion (constant velocity).
   bool constant_velocity_guess = false;
@@ -62,10 +71,11 @@ struct SurfelSlamOptions {
 };
 
 // Milliseconds per stage of the last process() call (steady clock).
-// fuse_ms includes reorder_ms: the spatial reordering of the pool (slam/spatial_order.h) on the
-// frames it is due, 0 on the others.
+// fuse_ms includes index_ms, the index map rendered at the tracked pose for fusion's association
+// (0 with associate_at_tracked_pose false and on the first frame), and reorder_ms: the spatial
+// reordering of the pool (slam/spatial_order.h) on the frames it is due, 0 on the others.
 struct SlamTimings {
-  double preprocess_ms = 0, track_ms = 0, fuse_ms = 0, reorder_ms = 0, predict_ms = 0, total_ms = 0;
+  double preprocess_ms = 0, track_ms = 0, fuse_ms = 0, index_ms = 0, reorder_ms = 0, predict_ms = 0, total_ms = 0;
 };
 
 struct SlamFrameResult {

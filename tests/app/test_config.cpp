@@ -54,6 +54,7 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.rgb_weight, b.rgb_weight);
   EXPECT_EQ(a.depth_cutoff_m, b.depth_cutoff_m);
   EXPECT_EQ(a.index_map_scale, b.index_map_scale);
+  EXPECT_EQ(a.associate_at_tracked_pose, b.associate_at_tracked_pose);
   EXPECT_EQ(a.labels, b.labels);
   EXPECT_EQ(a.model, b.model);
   EXPECT_EQ(a.label_every, b.label_every);
@@ -115,7 +116,8 @@ TEST(ConfigYaml, SectionsSetTheOptions) {
   auto c = read_text(
       "source: synthetic:\n"
       "resolution: 320x240\n"
-      "mapping: {surfel_capacity: 500000, icp_weight: 5, rgb_weight: 0.5, depth_cutoff_m: 4.5, index_map_scale: 2}\n"
+      "mapping: {surfel_capacity: 500000, icp_weight: 5, rgb_weight: 0.5, depth_cutoff_m: 4.5, index_map_scale: 2,\n"
+      "          associate_at_tracked_pose: false}\n"
       "labels: {enabled: true, model: net.efm, every: 5, out: lab, out_every: 3, visibility: false}\n"
       "crf:\n"
       "  every: 100\n"
@@ -129,6 +131,7 @@ TEST(ConfigYaml, SectionsSetTheOptions) {
   EXPECT_EQ(c->rgb_weight, 0.5);
   EXPECT_EQ(c->depth_cutoff_m, 4.5f);
   EXPECT_EQ(c->index_map_scale, 2);
+  EXPECT_FALSE(c->associate_at_tracked_pose);
   EXPECT_TRUE(c->labels);
   EXPECT_EQ(c->model, "net.efm");
   EXPECT_EQ(c->label_every, 5);
@@ -282,6 +285,7 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.rgb_weight = 1.0 / 3.0;
   c.depth_cutoff_m = 3.3f;
   c.index_map_scale = 3;
+  c.associate_at_tracked_pose = false;
   c.labels = false;
   c.model = "{model}.efm";
   c.label_every = 7;

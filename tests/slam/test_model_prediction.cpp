@@ -793,6 +793,66 @@ TEST(ModelPredict, TrackerAlignsFrameWithPrediction) {
 }
 
 // Predicting twice, and predicting after the pool changed, leaves no trace of the earlier call.
+// render_index_map() makes the index map that predict() makes at the same pose, bit for bit, and
+// leaves the tracking maps, their counters and pose() as the last predict() left them.
+TEST(ModelPredict, IndexMapAloneEqualsPredictAndKeepsTrackingMaps) {
+  const Intrinsics K = small_camera();
+  const SE3 T_a = some_pose();
+  Vector6d xi;
+  xi << 0.04, -0.02, 0.03, 0.05, -0.03, 0.02;  // 5 cm, about 3.5 degrees away
+  const SE3 T_b = T_a * SE3::exp(xi);
+  SurfelPool pool = make_pool();
+  fill_plane(pool, K, T_a, tilted_plane(1.5), 20.0f);
+  fill_plane(pool, K, T_a, tilted_plane(2.5), 3.0f);  // unstable, behind: index map only, and contested
+  auto at_b = make_predictor(K);
+  ASSERT_TRUE(at_b.predict(pool, T_b, 0).ok());
+  auto p = make_predictor(K);
+  ASSERT_TRUE(p.predict(pool, T_a, 0).ok());
+  const PredictionCounters counters = p.counters();
+  std::vector<std::vector<float>> depth_before;
+  std::vector<std::vector<Eigen::Vector3f>> vertex_before;
+  for (int l = 0; l < p.levels(); ++l) {
+    const PredictedLevel& lv = p.level(l);
+    depth_before.emplace_back(lv.depth.data(), lv.depth.data() + lv.depth.size());
+    vertex_before.emplace_back(lv.vertex.data(), lv.vertex.data() + lv.vertex.size());
+  }
+  const auto winners = [&p] {
+    std::vector<int32_t> w;
+    const ImageView<const int32_t> ids = p.surfel_ids();
+    for (int y = 0; y < ids.height; ++y) w.insert(w.end(), ids.row(y), ids.row(y) + ids.width);
+    return w;
+  };
+  const std::vector<int32_t> winners_before = winners();
+
+  p.render_index_map(pool, T_b);
+  const IndexMap& got = p.index_map();
+  const IndexMap& want = at_b.index_map();
+  EXPECT_EQ(got.T_world_cam.matrix(), T_b.matrix());
+  EXPECT_EQ(got.surfels_drawn, want.surfels_drawn);
+  ASSERT_EQ(got.id.size(), want.id.size());
+  int64_t occupied = 0, moved = 0;
+  for (std::size_t k = 0; k < got.id.size(); ++k) {
+    ASSERT_EQ(got.id.data()[k], want.id.data()[k]) << "index pixel " << k;
+    ASSERT_EQ(got.depth.data()[k], want.depth.data()[k]) << "index pixel " << k;
+    if (got.id.data()[k] < 0) continue;
+    ++occupied;
+    ASSERT_EQ(std::memcmp(&got.surface.data()[k], &want.surface.data()[k], sizeof(IndexSurface)), 0);
+  }
+  EXPECT_GT(occupied, 1000);
+  // The tracking maps are still those at T_a (which differ from T_b's).
+  EXPECT_EQ(p.pose().matrix(), T_a.matrix());
+  EXPECT_EQ(p.counters().valid_pixels, counters.valid_pixels);
+  EXPECT_EQ(p.counters().splatted_surfels, counters.splatted_surfels);
+  for (int l = 0; l < p.levels(); ++l) {
+    const PredictedLevel& lv = p.level(l);
+    EXPECT_TRUE(std::equal(depth_before[l].begin(), depth_before[l].end(), lv.depth.data())) << "level " << l;
+    EXPECT_TRUE(std::equal(vertex_before[l].begin(), vertex_before[l].end(), lv.vertex.data())) << "level " << l;
+    moved += std::equal(depth_before[l].begin(), depth_before[l].end(), at_b.level(l).depth.data()) ? 0 : 1;
+  }
+  EXPECT_EQ(moved, p.levels());  // the poses are far enough apart for every level to differ
+  EXPECT_EQ(winners(), winners_before);
+}
+
 TEST(ModelPredict, EachCallStartsFromScratch) {
   const Intrinsics K = small_camera();
   const SE3 T_wc = some_pose();

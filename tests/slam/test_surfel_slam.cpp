@@ -13,6 +13,8 @@
 #include "io/frame_resample.h"
 #include "slam/surfel_slam.h"
 #include "sources/open_source.h"
+#include "synth/renderer.h"
+#include "synth/synthetic_source.h"
 #include "test_support.h"
 
 namespace ef::slam {
@@ -263,6 +265,55 @@ TEST(SurfelSlam, TinyPoolFillsUpAndCountsRefusedSurfels) {
   // Created = live + removed + evicted: every surfel is accounted for.
   const SurfelPoolCounters& c = slam->pool().counters();
   EXPECT_EQ(c.created, static_cast<uint64_t>(slam->pool().size()) + c.removed + c.evicted);
+}
+
+// Revisiting: the camera pans one way and back (noise-free renders of a built-in room, 1 degree a
+// frame). On the way back, the surface entering the image at its border is surface the map already
+// holds: it left the view there on the way out. Associating through an index map at the tracked
+// pose finds those surfels; through the previous pose's, those pixels lie outside the index map and
+// become new surfels, duplicates of the old ones.
+TEST(SurfelSlam, AssociatingAtTheTrackedPoseMakesNoDuplicatesOnTheWayBack) {
+  constexpr int kOut = test::frames_native_or_emulated(20, 12);  // frames of the way out
+  const std::string uri = "synthetic:office?noise=0&frames=1&size=320x240";
+  auto parsed = parse_source_uri(uri);
+  ASSERT_TRUE(parsed.ok());
+  auto synthetic = synth::parse_synthetic_options(*parsed);
+  ASSERT_TRUE(synthetic.ok()) << to_string(synthetic.error());
+  auto src = synth::open_synthetic_source(*synthetic, uri);
+  ASSERT_TRUE(src.ok()) << to_string(src.error());
+  const Intrinsics K = (*src)->info().intrinsics;
+  ASSERT_EQ(K.width, 320);
+  synth::Renderer renderer((*src)->scene(), K);
+  const SE3 start = (*src)->poses()[0];
+  Frame frame;
+  frame.allocate(K.width, K.height, true);
+  int64_t back_new[2] = {0, 0}, surfels[2] = {0, 0};
+  for (int tracked = 0; tracked < 2; ++tracked) {
+    SurfelSlamOptions options;
+    options.associate_at_tracked_pose = tracked == 1;
+    auto slam = SurfelSlam::create(K, options);
+    ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+    SlamFrameResult r;
+    for (int i = 0; i <= 2 * kOut; ++i) {
+      const int step = i <= kOut ? i : 2 * kOut - i;  // 0 .. kOut .. 0
+      Vector6d pan;
+      pan << 0, 0, 0, 0, step * M_PI / 180.0, 0;  // about the camera's y axis (down)
+      renderer.render(start * SE3::exp(pan), frame.color.view(), frame.depth.view(), frame.labels.view());
+      ASSERT_TRUE(slam->process(frame, &r).ok());
+      ASSERT_FALSE(r.lost) << "frame " << i << ": " << track_lost_reason_name(r.track.reason);
+      EXPECT_EQ(r.timings.index_ms > 0, tracked == 1 && i > 0) << "frame " << i;
+      if (i > kOut) back_new[tracked] += r.fusion.new_surfels;
+    }
+    surfels[tracked] = slam->pool().size();
+  }
+  std::printf("new surfels on the way back: %lld associating at the previous pose, %lld at the tracked pose; "
+              "surfels at the end %lld / %lld\n",
+              static_cast<long long>(back_new[0]), static_cast<long long>(back_new[1]),
+              static_cast<long long>(surfels[0]), static_cast<long long>(surfels[1]));
+  // Each frame of the way back brings about 4.6 pixels' width (1 degree) of known surface into view.
+  EXPECT_GT(back_new[0], kOut * 3 * K.height);
+  EXPECT_LT(back_new[1] * 4, back_new[0]);
+  EXPECT_LT(surfels[1], surfels[0]);
 }
 
 TEST(SurfelSlam, NoHeapAllocationPerFrameAfterWarmUp) {
