@@ -16,6 +16,7 @@
 #include "slam/model_prediction.h"
 #include "slam/preprocess.h"
 #include "slam/preprocess_test_util.h"
+#include "slam/synthetic_test_util.h"
 #include "slam/tracker.h"
 #include "io/frame_source.h"
 #include "synth/synthetic_source.h"
@@ -646,14 +647,8 @@ struct SynthFrames {
 };
 
 SynthFrames open_synth(const std::string& uri) {
-  auto parsed = parse_source_uri(uri);
-  EXPECT_TRUE(parsed.ok());
-  auto opts = synth::parse_synthetic_options(*parsed);
-  EXPECT_TRUE(opts.ok());
-  auto src = synth::open_synthetic_source(*opts, uri);
-  EXPECT_TRUE(src.ok());
-  SynthFrames s{std::move(src).value(), {}};
-  s.K = s.src->info().intrinsics;
+  SynthFrames s{test::open_synthetic(uri), {}};
+  if (s.src) s.K = s.src->info().intrinsics;
   return s;
 }
 

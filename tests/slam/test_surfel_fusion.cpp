@@ -20,6 +20,7 @@
 #include "io/frame_source.h"
 #include "slam/preprocess.h"
 #include "slam/preprocess_test_util.h"
+#include "slam/synthetic_test_util.h"
 #include "slam/surfel_fusion.h"
 #include "slam/surfel_pool.h"
 #include "synth/renderer.h"
@@ -80,16 +81,6 @@ Preprocessor make_pre(const Intrinsics& K, const Frame& f) {
   EXPECT_TRUE(p.ok());
   EXPECT_TRUE(p->process(f).ok());
   return std::move(p).value();
-}
-
-std::unique_ptr<synth::SyntheticSource> open_synth(const std::string& uri) {
-  auto parsed = parse_source_uri(uri);
-  EXPECT_TRUE(parsed.ok());
-  auto opts = synth::parse_synthetic_options(*parsed);
-  EXPECT_TRUE(opts.ok());
-  auto src = synth::open_synthetic_source(*opts, uri);
-  EXPECT_TRUE(src.ok());
-  return std::move(src).value();
 }
 
 Frame render_frame(synth::SyntheticSource& src, int i) {
@@ -320,7 +311,7 @@ TEST(SurfelFusion, EmptyPoolCreatesOneSurfelPerValidPixel) {
 }
 
 TEST(SurfelFusion, SameFrameTwiceAtTheSamePoseDoesNotDuplicate) {
-  auto src = open_synth(kOfficeNoisy);
+  auto src = test::open_synthetic(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   const Frame f = render_frame(*src, 10);
   const SE3 pose = src->poses()[10];
@@ -409,7 +400,7 @@ struct ShiftedPair {
 };
 
 std::unique_ptr<ShiftedPair> shifted_pair(int i, const SE3& delta) {
-  auto src = open_synth(kOfficeClean);
+  auto src = test::open_synthetic(kOfficeClean);
   auto p = std::make_unique<ShiftedPair>();
   p->K = src->info().intrinsics;
   synth::Renderer renderer(src->scene(), p->K);
@@ -807,7 +798,7 @@ TEST(SurfelFusion, FreeSpaceViolationRemovesUnstableAndDemotesStable) {
 // ---- a tiny pool ----
 
 TEST(SurfelFusion, TinyPoolFillsCountsRefusedAndEvicts) {
-  auto src = open_synth(kOfficeNoisy);
+  auto src = test::open_synthetic(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   SurfelPool pool = make_pool(1000, 30);
   SurfelFusion fusion = make_fusion(K, 1000);
@@ -858,7 +849,7 @@ TEST(SurfelFusion, TinyPoolFillsCountsRefusedAndEvicts) {
 
 TEST(SurfelFusion, ZeroHeapAllocationsPerFuseAfterWarmUp) {
   ASSERT_TRUE(test::allocation_counting_enabled());
-  auto src = open_synth(kOfficeNoisy);
+  auto src = test::open_synthetic(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   std::vector<std::unique_ptr<Preprocessor>> pres;
   std::vector<SE3> poses;
@@ -909,7 +900,7 @@ TEST(SurfelFusion, SequenceWithTruePoses) {
 #else
   constexpr int kFrames = 12;
 #endif
-  auto src = open_synth(kOfficeNoisy);
+  auto src = test::open_synthetic(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   auto pre_r = Preprocessor::create(K);
   ASSERT_TRUE(pre_r.ok());

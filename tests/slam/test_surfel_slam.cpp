@@ -14,7 +14,7 @@
 #include "slam/surfel_slam.h"
 #include "sources/open_source.h"
 #include "synth/renderer.h"
-#include "synth/synthetic_source.h"
+#include "slam/synthetic_test_util.h"
 #include "test_support.h"
 
 namespace ef::slam {
@@ -275,16 +275,12 @@ TEST(SurfelSlam, TinyPoolFillsUpAndCountsRefusedSurfels) {
 TEST(SurfelSlam, AssociatingAtTheTrackedPoseMakesNoDuplicatesOnTheWayBack) {
   constexpr int kOut = test::frames_native_or_emulated(20, 12);  // frames of the way out
   const std::string uri = "synthetic:office?noise=0&frames=1&size=320x240";
-  auto parsed = parse_source_uri(uri);
-  ASSERT_TRUE(parsed.ok());
-  auto synthetic = synth::parse_synthetic_options(*parsed);
-  ASSERT_TRUE(synthetic.ok()) << to_string(synthetic.error());
-  auto src = synth::open_synthetic_source(*synthetic, uri);
-  ASSERT_TRUE(src.ok()) << to_string(src.error());
-  const Intrinsics K = (*src)->info().intrinsics;
+  const std::unique_ptr<synth::SyntheticSource> src = test::open_synthetic(uri);
+  ASSERT_NE(src, nullptr);
+  const Intrinsics K = src->info().intrinsics;
   ASSERT_EQ(K.width, 320);
-  synth::Renderer renderer((*src)->scene(), K);
-  const SE3 start = (*src)->poses()[0];
+  synth::Renderer renderer(src->scene(), K);
+  const SE3 start = src->poses()[0];
   Frame frame;
   frame.allocate(K.width, K.height, true);
   int64_t back_new[2] = {0, 0}, surfels[2] = {0, 0};

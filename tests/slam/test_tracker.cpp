@@ -12,6 +12,7 @@
 #include "io/frame_resample.h"
 #include "slam/preprocess.h"
 #include "slam/preprocess_test_util.h"
+#include "slam/synthetic_test_util.h"
 #include "slam/tracker.h"
 #include "sources/open_source.h"
 #include "synth/renderer.h"
@@ -29,16 +30,6 @@ struct PoseError {
 PoseError pose_error(const SE3& est, const SE3& truth) {
   const SE3 d = est.inverse() * truth;
   return {d.translation().norm(), d.angle() * kRadToDeg};
-}
-
-std::unique_ptr<synth::SyntheticSource> open_synth(const std::string& uri) {
-  auto parsed = parse_source_uri(uri);
-  EXPECT_TRUE(parsed.ok());
-  auto opts = synth::parse_synthetic_options(*parsed);
-  EXPECT_TRUE(opts.ok()) << to_string(opts.error());
-  auto src = synth::open_synthetic_source(*opts, uri);
-  EXPECT_TRUE(src.ok()) << to_string(src.error());
-  return std::move(src).value();
 }
 
 Preprocessor make_pre(const Intrinsics& K) {
@@ -70,7 +61,7 @@ std::unique_ptr<Pair> make_pair(const Intrinsics& K, const Frame& a, const Frame
 
 // Frames i and j of a synthetic sequence.
 std::unique_ptr<Pair> synth_pair(const std::string& uri, int i, int j) {
-  auto src = open_synth(uri);
+  auto src = test::open_synthetic(uri);
   const Intrinsics K = src->info().intrinsics;
   Frame a, b;
   a.allocate(K.width, K.height, true);
@@ -82,7 +73,7 @@ std::unique_ptr<Pair> synth_pair(const std::string& uri, int i, int j) {
 
 // Frame i of a synthetic sequence and a noise-free render at T_wc(i) * delta (delta: T_a_b).
 std::unique_ptr<Pair> synth_pair_at(const std::string& uri, int i, const SE3& delta) {
-  auto src = open_synth(uri);
+  auto src = test::open_synthetic(uri);
   const Intrinsics K = src->info().intrinsics;
   synth::Renderer renderer(src->scene(), K);
   Frame a, b;
@@ -252,8 +243,8 @@ TEST(Tracker, IcpOnlyRgbOnlyAndJointConverge) {
 }
 
 TEST(Tracker, LostOnAnotherRoomAndOnBlankDepth) {
-  auto office = open_synth(kOfficeNoisy);
-  auto kitchen = open_synth("synthetic:kitchen?noise=1&frames=30&size=320x240");
+  auto office = test::open_synthetic(kOfficeNoisy);
+  auto kitchen = test::open_synthetic("synthetic:kitchen?noise=1&frames=30&size=320x240");
   const Intrinsics K = office->info().intrinsics;
   Frame a, b;
   a.allocate(K.width, K.height, true);
