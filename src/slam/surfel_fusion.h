@@ -4,8 +4,10 @@
 //
 // One fuse() call, in this order (ids change only in steps 3 and 4, after every association):
 //   1. association   every valid pixel (raw depth > 0 and a valid level-0 normal) is moved into the
-//                    camera the index map was rendered from (IndexMap::T_world_cam: the previous pose,
-//                    which saves a second render on the CPU) and projected into the index grid. Its
+//                    camera the index map was rendered from (IndexMap::T_world_cam: SurfelSlam
+//                    renders it at the frame's tracked pose, so that this is the identity, or with
+//                    associate_at_tracked_pose false gives the previous pose's; pixels outside that
+//                    map then find no candidates) and projected into the index grid. Its
 //                    candidates are the surfels of the scale x scale block of index pixels around the
 //                    projection (the pixel's footprint), and only when none of those passes the
 //                    gates, of a margin of search_margin_index_px around the block (the gates read
