@@ -1,5 +1,6 @@
 // The whole SLAM core (preprocess, frame-to-model tracking, fusion, prediction) on synthetic
-// sequences with exact poses, a frame of another scene, a tiny pool, and zero allocations per frame.
+// sequences with exact poses, a frame of another scene, a tiny pool, a pan out and back (no duplicate
+// surfels where known surface re-enters the view), and zero allocations per frame.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,9 +13,9 @@
 #include "eval/trajectory_eval.h"
 #include "io/frame_resample.h"
 #include "slam/surfel_slam.h"
+#include "slam/synthetic_test_util.h"
 #include "sources/open_source.h"
 #include "synth/renderer.h"
-#include "slam/synthetic_test_util.h"
 #include "test_support.h"
 
 namespace ef::slam {
