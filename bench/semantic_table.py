@@ -20,10 +20,14 @@ instead (synthetic:ROOM, e.g. living_room bedroom office kitchen library: fixed 
 which only drew random rooms, never used); --trajectory robot the planar robot path instead of the
 hand-held loop. --model runs another segmentation model (.efm) in place of the shipped one, for
 the CNN row and both runs (the work folder's outputs are then that model's: use a folder per model).
+--camera kinect renders the sequences through the synthetic source's Kinect-like colour camera
+(camera=kinect: motion blur, vignetting, auto-exposure and white balance, shot noise), directly at
+320x240 (size=320x240: five renders per frame at 640x480 would take four times as long); use it with
+a model trained on that camera (python3 -m edgefusion_models.train --camera kinect).
 
   /usr/bin/python3 bench/semantic_table.py --edgefusion build/release/firmware_app/edgefusion \\
       --work /tmp/semantic-table [--seeds 5001 5002 5003 | --rooms ROOM...] [--trajectory loop|robot] \\
-      [--frames 1200] [--every 10] [--crf-every 500] [--model FILE.efm]
+      [--frames 1200] [--every 10] [--crf-every 500] [--model FILE.efm] [--camera ideal|kinect]
 Prints a Markdown table (per sequence and the mean of the sequences).
 """
 import argparse
@@ -75,6 +79,8 @@ def main():
                     help="existing TUM folders with labels/ to use instead of rendering seeds")
     ap.add_argument("--model", default="",
                     help="segmentation model (.efm) for the CNN and both runs; default the shipped one")
+    ap.add_argument("--camera", choices=["ideal", "kinect"], default="ideal",
+                    help="colour camera of the rendered sequences (the synthetic source's camera=)")
     args = ap.parse_args()
     ef = args.edgefusion
     run_config = ["--config", args.run_config] if args.run_config else []
@@ -87,11 +93,13 @@ def main():
     sequences = list(args.sequences)
     if not sequences:
         suffix = "" if args.trajectory == "loop" else "-" + args.trajectory
+        camera = "" if args.camera == "ideal" else "&size=320x240&camera=" + args.camera
+        suffix += "" if args.camera == "ideal" else "-" + args.camera
         if args.rooms:
-            jobs = [(room + suffix, f"synthetic:{room}?trajectory={args.trajectory}&frames={args.frames}")
+            jobs = [(room + suffix, f"synthetic:{room}?trajectory={args.trajectory}&frames={args.frames}{camera}")
                     for room in args.rooms]
         else:
-            jobs = [(f"seed{s}{suffix}", f"synthetic:random?seed={s}&trajectory={args.trajectory}&frames={args.frames}")
+            jobs = [(f"seed{s}{suffix}", f"synthetic:random?seed={s}&trajectory={args.trajectory}&frames={args.frames}{camera}")
                     for s in args.seeds]
         for name, uri in jobs:
             folder = os.path.join(args.work, name)

@@ -44,7 +44,7 @@ const std::vector<std::string>& synthetic_room_names() { return synth::builtin_r
 namespace synth {
 
 Result<SyntheticOptions> parse_synthetic_options(const SourceUri& uri) {
-  EF_RETURN_IF_ERROR(check_query_keys(uri, {"seed", "trajectory", "frames", "size", "noise"}));
+  EF_RETURN_IF_ERROR(check_query_keys(uri, {"seed", "trajectory", "frames", "size", "noise", "camera"}));
   SyntheticOptions o;
   o.room = uri.path;
   if (!o.room.empty() && o.room != "random") {
@@ -80,6 +80,10 @@ Result<SyntheticOptions> parse_synthetic_options(const SourceUri& uri) {
       if (value == "0") o.noise = false;
       else if (value == "1") o.noise = true;
       else return bad_value(key, value, "0 or 1");
+    } else if (key == "camera") {
+      if (value == "ideal") o.camera = CameraKind::kIdeal;
+      else if (value == "kinect") o.camera = CameraKind::kKinect;
+      else return bad_value(key, value, "ideal or kinect");
     }
   }
   return o;
@@ -92,6 +96,7 @@ struct SyntheticSource::Impl {
   std::vector<SE3> poses;
   std::unique_ptr<Renderer> renderer;
   std::unique_ptr<KinectNoise> noise;
+  std::unique_ptr<ColorCamera> camera;  // null with CameraKind::kIdeal
   int64_t next_index = 0;
 };
 
@@ -122,7 +127,12 @@ Result<std::unique_ptr<SyntheticSource>> open_synthetic_source(const SyntheticOp
   impl->info.has_color = true;
   impl->info.live = false;
   impl->renderer = std::make_unique<Renderer>(impl->scene, K);
-  impl->noise = std::make_unique<KinectNoise>(options.noise_options, K.width, K.height);
+  DepthNoiseOptions noise_options = options.noise_options;
+  if (options.camera == CameraKind::kKinect) {
+    impl->camera = std::make_unique<ColorCamera>(options.camera_options, K.width, K.height, kFps);
+    noise_options.color_sigma = 0.0f;  // the camera model has its own colour noise
+  }
+  impl->noise = std::make_unique<KinectNoise>(noise_options, K.width, K.height);
   return std::unique_ptr<SyntheticSource>(new SyntheticSource(std::move(impl)));
 }
 
@@ -133,11 +143,16 @@ Status SyntheticSource::render(int64_t index, Frame& out) {
                                              std::to_string(m.poses.size() - 1));
   const Intrinsics& K = m.info.intrinsics;
   out.allocate(K.width, K.height, true);
-  m.renderer->render(m.poses[index], out.color.view(), out.depth.view(), out.labels.view());
+  // One independent stream per (seed, frame): frames can be rendered in any order.
+  const uint64_t frame_seed = (static_cast<uint64_t>(synth::hash32(m.options.seed, 0x6e6f6973u)) << 32) |
+                              static_cast<uint64_t>(index);
+  if (m.camera) {
+    m.camera->capture(*m.renderer, m.poses, index, m.options.noise, frame_seed, out.color.view(), out.depth.view(),
+                      out.labels.view());
+  } else {
+    m.renderer->render(m.poses[index], out.color.view(), out.depth.view(), out.labels.view());
+  }
   if (m.options.noise) {
-    // One independent stream per (seed, frame): frames can be rendered in any order.
-    const uint64_t frame_seed = (static_cast<uint64_t>(synth::hash32(m.options.seed, 0x6e6f6973u)) << 32) |
-                                static_cast<uint64_t>(index);
     m.noise->apply(frame_seed, out.depth.view(), m.renderer->incidence(), out.color.view());
   }
   out.timestamp = static_cast<double>(index) / kFps;

@@ -1,4 +1,4 @@
-// The built-in synthetic frame source: "synthetic:<room>?seed=&trajectory=&frames=&size=&noise=".
+// The built-in synthetic frame source: "synthetic:<room>?seed=&trajectory=&frames=&size=&noise=&camera=".
 //
 //   room        "" (the default, living_room), a built-in room (synthetic_room_names()), or
 //               "random" (a room drawn from `seed`)
@@ -8,6 +8,9 @@
 //   frames      positive integer, default 300; timestamps are index / 30 s
 //   size        WxH, default 640x480 (Kinect-like fx = fy = 525, scaled for other sizes)
 //   noise       1 (default: Kinect-like depth and colour noise) | 0 (exact images)
+//   camera      ideal (default: the renderer's colour, plus the colour noise above) | kinect (the
+//               colour camera of camera_model.h: motion blur, vignetting, auto-exposure, white
+//               balance, shot noise; with noise=0 everything but the random noise)
 // Frames carry the exact pose T_wc and the per-pixel class labels. Same URI => same images,
 // bit for bit.
 #pragma once
@@ -19,6 +22,7 @@
 #include "core/intrinsics.h"
 #include "core/result.h"
 #include "io/frame_source.h"
+#include "synth/camera_model.h"
 #include "synth/depth_noise.h"
 #include "synth/scene.h"
 #include "synth/trajectory.h"
@@ -37,6 +41,11 @@ Intrinsics synthetic_default_intrinsics();
 
 namespace synth {
 
+enum class CameraKind {
+  kIdeal,   // the renderer's colour image (Lambertian, sharp), plus DepthNoiseOptions::color_sigma
+  kKinect,  // through ColorCamera (camera_model.h); DepthNoiseOptions::color_sigma is not applied
+};
+
 struct SyntheticOptions {
   std::string room;               // "" = default room, a built-in name, or "random"
   uint32_t seed = 0;              // see the file comment
@@ -45,6 +54,8 @@ struct SyntheticOptions {
   int width = 640, height = 480;  // pixels
   bool noise = true;              // Kinect-like sensor noise on
   DepthNoiseOptions noise_options;
+  CameraKind camera = CameraKind::kIdeal;
+  CameraModelOptions camera_options;  // used with CameraKind::kKinect
 };
 
 // Parses the URI's path and query into options; errors name the offending key or value.
