@@ -47,7 +47,7 @@ SE3 pose_between_frames(const std::vector<SE3>& poses, int64_t index, double fra
 
 ColorCamera::ColorCamera(const CameraModelOptions& options, int width, int height, double fps)
     : o_(options), fps_(fps) {
-  o_.blur_samples = std::max(1, o_.blur_samples);
+  o_.blur_samples = std::max(1, o_.blur_samples) | 1;  // odd: the middle sample is the frame's own pose
   linear_.allocate(3 * width, height);
   vignette_.allocate(width, height);
   scratch_color_.allocate(width, height);

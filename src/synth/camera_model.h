@@ -23,7 +23,7 @@ namespace ef::synth {
 
 struct CameraModelOptions {
   float shutter_s = 0.020f;          // seconds: exposure time; blur integrates the camera's motion over it, centred on the frame's time
-  int blur_samples = 5;              // renders averaged over the shutter (1 = no blur; odd, so the middle one is the frame's pose)
+  int blur_samples = 5;              // renders averaged over the shutter (1 = no blur); an even count is raised to the next odd one, so the middle render is the frame's own pose
   float vignetting = 0.35f;          // fraction of light lost at the image corners; the loss grows with (radius / corner radius)^2
   float exposure_target = 0.18f;     // linear mean luminance that auto-exposure aims for (18% grey)
   float exposure_strength = 0.75f;   // 0 = fixed gain 1, 1 = full correction to the target; linear in between

@@ -128,6 +128,9 @@ constexpr Golden kGolden[] = {
      0x9ce4655bad8f91ddULL, 0x7dc7506524026af8ULL, 0x8c20f41def0c3051ULL, 0x22aa5f249c6d4423ULL, 0x5ea86aa561f9e06fULL},
     {"synthetic:random?seed=7&trajectory=robot&frames=60&size=160x120", {3, 57},
      0xdf51330a3a58a566ULL, 0x083f01bb54f01bceULL, 0x6f2c52d8342dbe00ULL, 0x005343ccd8980343ULL, 0xbbea7ea169685ef6ULL},
+    // The Kinect-like colour camera (camera_model.h): blur over interpolated poses, exposure, noise.
+    {"synthetic:random?seed=7&frames=60&size=160x120&camera=kinect", {3, 57},
+     0xdf51330a3a58a566ULL, 0x43561c90f6149951ULL, 0x8c3c6d2ed16da5b3ULL, 0x3134d1e1b47e8438ULL, 0x2b2e77d17f61e6e1ULL},
 };
 
 TEST(SynthGolden, FramesAndPosesMatchRecordedHashes) {
