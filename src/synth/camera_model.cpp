@@ -42,7 +42,7 @@ SE3 pose_between_frames(const std::vector<SE3>& poses, int64_t index, double fra
   if (frame_offset == 0.0) return poses[index];
   const int64_t other = frame_offset < 0 ? index - 1 : index + 1;
   if (other < 0 || other >= n) return poses[index];
-  return interpolate(poses[index], poses[other], std::fabs(frame_offset));
+  return interpolate(poses[index], poses[other], std::min(1.0, std::fabs(frame_offset)));
 }
 
 ColorCamera::ColorCamera(const CameraModelOptions& options, int width, int height, double fps)

@@ -5,8 +5,10 @@
 // Why: the renderer shades surfaces as Lambertian, so without this one surface looks the same from
 // every view, and a CNN's mistakes on it repeat in every view. On a real recording the same surface
 // is brighter or darker (exposure follows what else is in view), tinted (white balance), blurred
-// when the camera turns, and darker near the image corners; those are the view-to-view changes that
-// let a map that fuses many views correct single-frame mistakes.
+// when the camera turns, and darker near the image corners: view-to-view changes that a map fusing
+// many views can use to correct single-frame mistakes. (Measured on the synthetic rooms: with a CNN
+// trained on this camera its mistakes become only a little less repeatable; docs/results.md, issue 6,
+// stop 22.)
 //
 // Determinism: only + - * / and sqrt (exactly rounded) in this module's float code, compiled with
 // -ffp-contract=off, and the seeded Pcg32; so a URI gives the same bytes on x86-64 and ARM64.
@@ -22,7 +24,7 @@
 namespace ef::synth {
 
 struct CameraModelOptions {
-  float shutter_s = 0.020f;          // seconds: exposure time; blur integrates the camera's motion over it, centred on the frame's time
+  float shutter_s = 0.020f;          // seconds: exposure time; blur integrates the camera's motion over it, centred on the frame's time (at most two frame intervals count)
   int blur_samples = 5;              // renders averaged over the shutter (1 = no blur); an even count is raised to the next odd one, so the middle render is the frame's own pose
   float vignetting = 0.35f;          // fraction of light lost at the image corners; the loss grows with (radius / corner radius)^2
   float exposure_target = 0.18f;     // linear mean luminance that auto-exposure aims for (18% grey)
@@ -34,7 +36,7 @@ struct CameraModelOptions {
   float shot_noise = 0.12f;          // 8-bit levels^2 per level: noise variance added per level of signal (photon noise)
 };
 
-// Pose at `frame_offset` frames from frame `index` of `poses` (|frame_offset| <= 1): translation
+// Pose at `frame_offset` frames from frame `index` of `poses` (clamped to -1..1): translation
 // interpolated linearly, rotation by normalised linear quaternion interpolation, towards the
 // neighbouring frame; at either end of the sequence the missing neighbour is the frame itself (no
 // motion on that side).

@@ -71,6 +71,8 @@ TEST(CameraModel, PoseBetweenFramesInterpolatesTowardsTheNeighbour) {
   EXPECT_NEAR(angle(synth::pose_between_frames(poses, 1, -1.0), poses[0]), 0.0, 1e-6);
   EXPECT_NEAR(angle(synth::pose_between_frames(poses, 1, 0.5), poses[1]), 1.0, 1e-4);
   EXPECT_NEAR(angle(synth::pose_between_frames(poses, 1, -0.25), poses[0]), 1.5, 1e-4);
+  // Offsets beyond a neighbour stop at it (a shutter longer than two frames).
+  EXPECT_NEAR(angle(synth::pose_between_frames(poses, 1, 1.5), poses[2]), 0.0, 1e-6);
   // No neighbour before frame 0 or after the last: no motion on that side.
   EXPECT_NEAR(angle(synth::pose_between_frames(poses, 0, -0.3), poses[0]), 0.0, 1e-9);
   EXPECT_NEAR(angle(synth::pose_between_frames(poses, 2, 0.3), poses[2]), 0.0, 1e-9);
