@@ -90,6 +90,8 @@ def main():
             sys.exit(f"semantic_table: seed {s} was used in training, validation or the model's test set")
     os.makedirs(args.work, exist_ok=True)
 
+    if args.sequences and args.camera != "ideal":
+        sys.exit("semantic_table: --camera renders the sequences; --sequences are already rendered (drop one)")
     sequences = list(args.sequences)
     if not sequences:
         suffix = "" if args.trajectory == "loop" else "-" + args.trajectory

@@ -9,16 +9,6 @@ namespace ef::synth {
 
 namespace {
 
-// 8-bit sRGB <-> linear light with the renderer's gamma 2 (renderer.cpp's to_srgb8).
-inline float to_linear(uint8_t v) {
-  const float c = static_cast<float>(v) * (1.0f / 255.0f);
-  return c * c;
-}
-inline float to_levels(float linear) {
-  const float c = linear > 0.0f ? std::min(linear, 1.0f) : 0.0f;
-  return std::sqrt(c) * 255.0f;
-}
-
 // Written out component by component (not Eigen expressions): Eigen may evaluate these with fused
 // multiply-adds on ARM64 whatever -ffp-contract says, and the images must match across machines.
 SE3 interpolate(const SE3& a, const SE3& b, double t) {
@@ -86,9 +76,9 @@ void ColorCamera::capture(Renderer& renderer, const std::vector<SE3>& poses, int
       const Rgb8* crow = c.row(y);
       float* lrow = lin.row(y);
       for (int x = 0; x < w; ++x) {
-        lrow[3 * x + 0] += to_linear(crow[x].r);
-        lrow[3 * x + 1] += to_linear(crow[x].g);
-        lrow[3 * x + 2] += to_linear(crow[x].b);
+        lrow[3 * x + 0] += levels_to_linear(crow[x].r);
+        lrow[3 * x + 1] += levels_to_linear(crow[x].g);
+        lrow[3 * x + 2] += levels_to_linear(crow[x].b);
       }
     }
   }
@@ -126,7 +116,7 @@ void ColorCamera::capture(Renderer& renderer, const std::vector<SE3>& poses, int
     scale[ch] = last_gain_ * last_wb_[ch];
   }
 
-  // 4. Gain, clipping at full well (to_levels clamps to 1), back to 8 bits, shot and read noise.
+  // 4. Gain, clipping at full well (linear_to_levels clamps to 1), back to 8 bits, shot and read noise.
   Pcg32 rng(noise_seed, 0x63616d6572613031ULL);
   const float read_var = o_.read_noise * o_.read_noise;
   for (int y = 0; y < h; ++y) {
@@ -135,7 +125,7 @@ void ColorCamera::capture(Renderer& renderer, const std::vector<SE3>& poses, int
     for (int x = 0; x < w; ++x) {
       uint8_t out[3];
       for (int ch = 0; ch < 3; ++ch) {
-        float v = to_levels(lrow[3 * x + ch] * scale[ch]);
+        float v = linear_to_levels(lrow[3 * x + ch] * scale[ch]);
         if (add_noise) v += std::sqrt(read_var + o_.shot_noise * v) * rng.gaussian();
         out[ch] = static_cast<uint8_t>(std::min(255.0f, std::max(0.0f, std::nearbyint(v))));
       }

@@ -36,12 +36,7 @@ void primitive_uv(const Primitive& p, const Eigen::Vector3f& q, const Eigen::Vec
   hu = hv = 0.0f;
 }
 
-inline uint8_t to_srgb8(float linear) {
-  // Gamma 2 (sqrt) instead of the exact sRGB curve: exactly rounded on every machine. NaN -> 0
-  // (converting NaN to an integer is undefined, and x86-64 and ARM64 give different values).
-  const float c = linear > 0.0f ? std::min(linear, 1.0f) : 0.0f;
-  return static_cast<uint8_t>(std::sqrt(c) * 255.0f + 0.5f);
-}
+inline uint8_t to_srgb8(float linear) { return static_cast<uint8_t>(linear_to_levels(linear) + 0.5f); }
 
 // Tile index range [lo, hi] as integers. The float bounds can be far outside the image (up to
 // +-1e9 for primitives crossing the near plane): clamp before converting, since a float to int16
@@ -87,6 +82,17 @@ Eigen::Matrix3f rotation_of(const Eigen::Quaterniond& q) {
 }
 
 }  // namespace
+
+float linear_to_levels(float linear) {
+  // NaN -> 0: converting NaN to an integer is undefined, and x86-64 and ARM64 give different values.
+  const float c = linear > 0.0f ? std::min(linear, 1.0f) : 0.0f;
+  return std::sqrt(c) * 255.0f;
+}
+
+float levels_to_linear(uint8_t levels) {
+  const float c = static_cast<float>(levels) * (1.0f / 255.0f);
+  return c * c;
+}
 
 Renderer::Renderer(const Scene& scene, const Intrinsics& intrinsics) : scene_(scene), K_(intrinsics) {
   tiles_x_ = (K_.width + kTile - 1) / kTile;

@@ -17,6 +17,15 @@
 
 namespace ef::synth {
 
+// The synthetic images' colour encoding, written once for the renderer and the colour camera
+// (camera_model.h), which must undo it exactly: gamma 2 (a square root) instead of the exact sRGB
+// curve, because a square root is exactly rounded on every machine. Out of line (renderer.cpp,
+// compiled without fused multiply-add), so that no caller's arithmetic is contracted into it.
+//   linear_to_levels: linear light, clamped to [0, 1] (NaN -> 0), to 8-bit levels 0..255, unrounded
+//   levels_to_linear: 8-bit levels to linear light in [0, 1]
+float linear_to_levels(float linear);
+float levels_to_linear(uint8_t levels);
+
 class Renderer {
  public:
   // Keeps a reference to `scene` (which must outlive the renderer) and allocates all scratch.

@@ -13,13 +13,13 @@
 #include <string>
 #include <vector>
 
+#include "io/frame_source.h"
 #include "slam/model_prediction.h"
 #include "slam/preprocess.h"
 #include "slam/preprocess_test_util.h"
-#include "slam/synthetic_test_util.h"
 #include "slam/tracker.h"
-#include "io/frame_source.h"
 #include "synth/synthetic_source.h"
+#include "synth/test_synth_support.h"
 
 namespace ef::slam {
 namespace {
@@ -647,7 +647,7 @@ struct SynthFrames {
 };
 
 SynthFrames open_synth(const std::string& uri) {
-  SynthFrames s{test::open_synthetic(uri), {}};
+  SynthFrames s{test::open_synth(uri), {}};
   if (s.src) s.K = s.src->info().intrinsics;
   return s;
 }

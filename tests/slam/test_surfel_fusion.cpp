@@ -20,11 +20,11 @@
 #include "io/frame_source.h"
 #include "slam/preprocess.h"
 #include "slam/preprocess_test_util.h"
-#include "slam/synthetic_test_util.h"
 #include "slam/surfel_fusion.h"
 #include "slam/surfel_pool.h"
 #include "synth/renderer.h"
 #include "synth/synthetic_source.h"
+#include "synth/test_synth_support.h"
 
 namespace ef::slam {
 namespace {
@@ -311,7 +311,7 @@ TEST(SurfelFusion, EmptyPoolCreatesOneSurfelPerValidPixel) {
 }
 
 TEST(SurfelFusion, SameFrameTwiceAtTheSamePoseDoesNotDuplicate) {
-  auto src = test::open_synthetic(kOfficeNoisy);
+  auto src = test::open_synth(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   const Frame f = render_frame(*src, 10);
   const SE3 pose = src->poses()[10];
@@ -400,7 +400,7 @@ struct ShiftedPair {
 };
 
 std::unique_ptr<ShiftedPair> shifted_pair(int i, const SE3& delta) {
-  auto src = test::open_synthetic(kOfficeClean);
+  auto src = test::open_synth(kOfficeClean);
   auto p = std::make_unique<ShiftedPair>();
   p->K = src->info().intrinsics;
   synth::Renderer renderer(src->scene(), p->K);
@@ -798,7 +798,7 @@ TEST(SurfelFusion, FreeSpaceViolationRemovesUnstableAndDemotesStable) {
 // ---- a tiny pool ----
 
 TEST(SurfelFusion, TinyPoolFillsCountsRefusedAndEvicts) {
-  auto src = test::open_synthetic(kOfficeNoisy);
+  auto src = test::open_synth(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   SurfelPool pool = make_pool(1000, 30);
   SurfelFusion fusion = make_fusion(K, 1000);
@@ -849,7 +849,7 @@ TEST(SurfelFusion, TinyPoolFillsCountsRefusedAndEvicts) {
 
 TEST(SurfelFusion, ZeroHeapAllocationsPerFuseAfterWarmUp) {
   ASSERT_TRUE(test::allocation_counting_enabled());
-  auto src = test::open_synthetic(kOfficeNoisy);
+  auto src = test::open_synth(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   std::vector<std::unique_ptr<Preprocessor>> pres;
   std::vector<SE3> poses;
@@ -900,7 +900,7 @@ TEST(SurfelFusion, SequenceWithTruePoses) {
 #else
   constexpr int kFrames = 12;
 #endif
-  auto src = test::open_synthetic(kOfficeNoisy);
+  auto src = test::open_synth(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   auto pre_r = Preprocessor::create(K);
   ASSERT_TRUE(pre_r.ok());

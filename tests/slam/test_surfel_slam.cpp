@@ -13,9 +13,9 @@
 #include "eval/trajectory_eval.h"
 #include "io/frame_resample.h"
 #include "slam/surfel_slam.h"
-#include "slam/synthetic_test_util.h"
 #include "sources/open_source.h"
 #include "synth/renderer.h"
+#include "synth/test_synth_support.h"
 #include "test_support.h"
 
 namespace ef::slam {
@@ -276,7 +276,7 @@ TEST(SurfelSlam, TinyPoolFillsUpAndCountsRefusedSurfels) {
 TEST(SurfelSlam, AssociatingAtTheTrackedPoseMakesNoDuplicatesOnTheWayBack) {
   constexpr int kOut = test::frames_native_or_emulated(20, 12);  // frames of the way out
   const std::string uri = "synthetic:office?noise=0&frames=1&size=320x240";
-  const std::unique_ptr<synth::SyntheticSource> src = test::open_synthetic(uri);
+  const std::unique_ptr<synth::SyntheticSource> src = test::open_synth(uri);
   ASSERT_NE(src, nullptr);
   const Intrinsics K = src->info().intrinsics;
   ASSERT_EQ(K.width, 320);

@@ -12,11 +12,11 @@
 #include "io/frame_resample.h"
 #include "slam/preprocess.h"
 #include "slam/preprocess_test_util.h"
-#include "slam/synthetic_test_util.h"
 #include "slam/tracker.h"
 #include "sources/open_source.h"
 #include "synth/renderer.h"
 #include "synth/synthetic_source.h"
+#include "synth/test_synth_support.h"
 #include "test_support.h"
 
 namespace ef::slam {
@@ -61,7 +61,7 @@ std::unique_ptr<Pair> make_pair(const Intrinsics& K, const Frame& a, const Frame
 
 // Frames i and j of a synthetic sequence.
 std::unique_ptr<Pair> synth_pair(const std::string& uri, int i, int j) {
-  auto src = test::open_synthetic(uri);
+  auto src = test::open_synth(uri);
   const Intrinsics K = src->info().intrinsics;
   Frame a, b;
   a.allocate(K.width, K.height, true);
@@ -73,7 +73,7 @@ std::unique_ptr<Pair> synth_pair(const std::string& uri, int i, int j) {
 
 // Frame i of a synthetic sequence and a noise-free render at T_wc(i) * delta (delta: T_a_b).
 std::unique_ptr<Pair> synth_pair_at(const std::string& uri, int i, const SE3& delta) {
-  auto src = test::open_synthetic(uri);
+  auto src = test::open_synth(uri);
   const Intrinsics K = src->info().intrinsics;
   synth::Renderer renderer(src->scene(), K);
   Frame a, b;
@@ -243,8 +243,8 @@ TEST(Tracker, IcpOnlyRgbOnlyAndJointConverge) {
 }
 
 TEST(Tracker, LostOnAnotherRoomAndOnBlankDepth) {
-  auto office = test::open_synthetic(kOfficeNoisy);
-  auto kitchen = test::open_synthetic("synthetic:kitchen?noise=1&frames=30&size=320x240");
+  auto office = test::open_synth(kOfficeNoisy);
+  auto kitchen = test::open_synth("synthetic:kitchen?noise=1&frames=30&size=320x240");
   const Intrinsics K = office->info().intrinsics;
   Frame a, b;
   a.allocate(K.width, K.height, true);
