@@ -81,6 +81,9 @@ def main():
                     help="segmentation model (.efm) for the CNN and both runs; default the shipped one")
     ap.add_argument("--camera", choices=["ideal", "kinect"], default="ideal",
                     help="colour camera of the rendered sequences (the synthetic source's camera=)")
+    ap.add_argument("--layout", choices=["walls", "island"], default="walls",
+                    help="room layout of the rendered sequences (the synthetic source's layout=; island: "
+                         "furniture in the middle too)")
     args = ap.parse_args()
     ef = args.edgefusion
     run_config = ["--config", args.run_config] if args.run_config else []
@@ -90,13 +93,15 @@ def main():
             sys.exit(f"semantic_table: seed {s} was used in training, validation or the model's test set")
     os.makedirs(args.work, exist_ok=True)
 
-    if args.sequences and args.camera != "ideal":
-        sys.exit("semantic_table: --camera renders the sequences; --sequences are already rendered (drop one)")
+    if args.sequences and (args.camera != "ideal" or args.layout != "walls"):
+        sys.exit("semantic_table: --camera and --layout render the sequences; --sequences are already rendered (drop one)")
     sequences = list(args.sequences)
     if not sequences:
         suffix = "" if args.trajectory == "loop" else "-" + args.trajectory
         camera = "" if args.camera == "ideal" else "&size=320x240&camera=" + args.camera
         suffix += "" if args.camera == "ideal" else "-" + args.camera
+        camera += "" if args.layout == "walls" else "&layout=" + args.layout
+        suffix += "" if args.layout == "walls" else "-" + args.layout
         if args.rooms:
             jobs = [(room + suffix, f"synthetic:{room}?trajectory={args.trajectory}&frames={args.frames}{camera}")
                     for room in args.rooms]

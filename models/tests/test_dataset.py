@@ -22,6 +22,15 @@ class SequenceUriTest(unittest.TestCase):
         self.assertIn(f"frames={dataset.TRAIN_FRAMES}", dataset.sequence_uri(1))
         self.assertIn(f"frames={dataset.EVAL_FRAMES}", dataset.sequence_uri(9001))
 
+    def test_island_layout_goes_to_the_hand_held_sequences_only(self):
+        walls = dataset.sequence_uri(7)
+        self.assertNotIn("layout=", walls)
+        self.assertEqual(dataset.sequence_uri(7, layout="walls"), walls)
+        self.assertEqual(dataset.sequence_uri(7, layout="island"), walls + "&layout=island")
+        self.assertEqual(dataset.sequence_uri(7, "kinect", "island"), walls + "&camera=kinect&layout=island")
+        # Robot sequences keep the walls layout: on many robot paths no middle group fits.
+        self.assertEqual(dataset.sequence_uri(9, layout="island"), dataset.sequence_uri(9))
+
     def test_splits_never_share_a_seed(self):
         splits = [set(r) for r in dataset.SPLIT_SEEDS.values()]
         for i in range(len(splits)):

@@ -5,6 +5,7 @@
 
 #include "synth/det_math.h"
 #include "synth/rng.h"
+#include "synth/trajectory.h"
 
 namespace ef::synth {
 
@@ -360,6 +361,77 @@ class Builder {
     part(pl, Vec3(0, 0, 0.005f), Vec3(w / 2, d / 2, 0.005f), kFloor, stripes());
   }
 
+  // --- furniture in the middle of the room (RoomLayout::kIsland) --------------------------------
+  // One group of furniture near the room's middle that keeps `clearance` metres from every point
+  // of `lap` (the camera's path: trajectory_lap) and clear of what the recipe placed. With
+  // `pass_over` (the hand-held loop) the camera may pass over the group, at the lap's base height
+  // less its swing (kHandheldHeightSwing); otherwise (a robot) only the floor-plane distance counts. The
+  // hand-held loop circles it and looks across it, so it hides a different part of the far side
+  // in every view. Variants, drawn from the seed (one that does not fit gives way to the next, and
+  // each is tried at full and reduced width, at the centre and then up to 0.6 m off it, nearest
+  // first): a dining table with a chair at each end, a sofa standing free (its back to one side of
+  // the loop), a kitchen counter with chairs at its front, two bookshelves back to back; last, in
+  // any room, a low table with things on it. False when none fits.
+  bool island(const std::vector<Vec3>& lap, float clearance, bool pass_over) {
+    const int first = static_cast<int>(rng_.below(4));
+    const bool flip = rng_.chance(0.5f);  // which side of the group faces which way
+    // Local x runs along the room's longer side.
+    const float yaw = (W() >= D() ? 0.0f : kPi / 2) + (flip ? kPi : 0.0f);
+    // Offsets from the centre (metres) on a 0.15 m grid, nearest first (ties in grid order).
+    std::vector<Vec2> shifts;
+    for (int iy = -4; iy <= 4; ++iy)
+      for (int ix = -4; ix <= 4; ++ix) shifts.emplace_back(0.15f * static_cast<float>(ix), 0.15f * static_cast<float>(iy));
+    std::stable_sort(shifts.begin(), shifts.end(), [](const Vec2& a, const Vec2& b) { return a.squaredNorm() < b.squaredNorm(); });
+    for (int k = 0; k < 5; ++k) {
+      const int variant = k < 4 ? (first + k) % 4 : 4;
+      // Drawn width (metres) of the main piece; footprint half sizes (local x, y) follow from it.
+      float drawn = 0, min_width = 0.8f;
+      switch (variant) {
+        case 0: drawn = rng_.uniform(0.9f, 1.3f); break;
+        case 1: drawn = rng_.uniform(1.6f, 2.0f); min_width = 1.4f; break;
+        case 2: drawn = rng_.uniform(1.0f, 1.5f); break;
+        case 3: drawn = rng_.uniform(0.8f, 1.2f); break;
+        default: drawn = rng_.uniform(0.7f, 1.0f); min_width = 0.6f; break;
+      }
+      for (const float scale : {1.0f, 0.85f, 0.7f}) {
+        const float width = std::max(min_width, drawn * scale);
+        // Footprint half sizes (local x, y) and the top of the tallest part with what stands on
+        // it (metres; clutter is up to 0.24 m tall, a bookshelf's books reach its top shelf).
+        const Vec2 half = variant == 0   ? Vec2(width / 2 + 0.5f, 0.42f)
+                          : variant == 1 ? Vec2(width / 2, 0.45f)
+                          : variant == 2 ? Vec2(width / 2, 0.8f)
+                          : variant == 3 ? Vec2(width / 2, 0.33f)
+                                         : Vec2(width / 2, 0.28f);
+        const float top = variant == 0 ? 0.99f : variant == 1 ? 0.85f : variant == 2 ? 1.18f : variant == 3 ? 1.3f : 0.69f;
+        for (const Vec2& shift : shifts) {
+          Placement pl;
+          pl.yaw = yaw;
+          pl.origin = Vec2(W() / 2, D() / 2) + shift;
+          const Vec3 c(0, 0, 0.5f), h(half.x(), half.y(), 0.5f);
+          if (!is_free(pl, c, h) || !clear_of(lap, pl, half, top, clearance, pass_over)) continue;
+          reserve(pl, c, h);
+          island_variant(variant, pl, width);
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+  // True when every point of `path` is at least `clearance` metres from the box of half sizes
+  // `half` around placement `pl`, from the floor up to `top` metres: in 3-D, with the point
+  // kHandheldHeightSwing lower, when `pass_over`; in the floor plane otherwise.
+  static bool clear_of(const std::vector<Vec3>& path, const Placement& pl, const Vec2& half, float top, float clearance,
+                       bool pass_over) {
+    for (const Vec3& p : path) {
+      const Vec2 q = rotate(-pl.yaw, Vec2(p.x(), p.y()) - pl.origin);
+      const float dx = std::max(0.0f, std::fabs(q.x()) - half.x());
+      const float dy = std::max(0.0f, std::fabs(q.y()) - half.y());
+      const float dz = pass_over ? std::max(0.0f, p.z() - static_cast<float>(kHandheldHeightSwing) - top) : 0.0f;
+      if (dx * dx + dy * dy + dz * dz < clearance * clearance) return false;
+    }
+    return true;
+  }
+
   // --- wall items -----------------------------------------------------------------------------
   bool window(int wall, float w, float h) {
     Placement pl;
@@ -376,6 +448,59 @@ class Builder {
     const Material m = mat(TextureKind::kPainting, Vec3::Zero(), wood().base * 0.6f, 1.0f);
     part(pl, Vec3(0, 0, z_centre), Vec3(w / 2, 0.015f, h / 2), kPainting, m);
     return true;
+  }
+
+  // The furniture of island variant `variant` (see island()) around `pl`, `width` metres wide.
+  void island_variant(int variant, const Placement& pl, float width) {
+    switch (variant) {
+      case 0: {  // dining table, a chair at each end facing it, things on the table
+        const float depth = rng_.uniform(0.7f, 0.84f);
+        table(pl, width, depth, 0.75f);
+        clutter(pl, Vec2(0, 0), Vec2(width / 2 - 0.15f, depth / 2 - 0.12f), 0.75f, 2 + static_cast<int>(rng_.below(3)));
+        for (int side = -1; side <= 1; side += 2) {
+          Placement c = pl;
+          c.origin += rotate(pl.yaw, Vec2(static_cast<float>(side) * (width / 2 + 0.3f), 0));
+          c.yaw += static_cast<float>(side) * kPi / 2 + rng_.uniform(-0.2f, 0.2f);
+          chair(c);
+        }
+        break;
+      }
+      case 1:  // a sofa standing free: its back (local -y) faces one side of the loop
+        sofa(pl, width);
+        break;
+      case 2: {  // kitchen counter with a worktop and things on it, two chairs at its front
+        const float depth = 0.6f;
+        Placement body = pl;
+        body.origin += rotate(pl.yaw, Vec2(0, -0.2f));
+        cabinet(body, width, depth, 0.9f);
+        part(body, Vec3(0, 0.02f, 0.92f), Vec3(width / 2 + 0.02f, depth / 2 + 0.01f, 0.02f), kFurniture,
+             mat(TextureKind::kTiles, Vec3(0.8f, 0.8f, 0.78f), Vec3(0.4f, 0.4f, 0.4f), 0.1f));
+        clutter(body, Vec2(0, 0), Vec2(width / 2 - 0.15f, 0.18f), 0.94f, 2 + static_cast<int>(rng_.below(3)));
+        for (int i = 0; i < 2; ++i) {
+          Placement c = pl;
+          c.origin += rotate(pl.yaw, Vec2((i == 0 ? -0.25f : 0.25f) * width, 0.45f));
+          c.yaw += kPi + rng_.uniform(-0.3f, 0.3f);
+          chair(c);
+        }
+        break;
+      }
+      case 4: {  // a low table with things on it
+        const float depth = rng_.uniform(0.45f, 0.55f);
+        table(pl, width, depth, 0.45f);
+        clutter(pl, Vec2(0, 0), Vec2(width / 2 - 0.12f, depth / 2 - 0.1f), 0.45f, 1 + static_cast<int>(rng_.below(3)));
+        break;
+      }
+      default: {  // two bookshelves back to back, books on both sides
+        const float h = rng_.uniform(1.0f, 1.3f);
+        for (int side = 0; side < 2; ++side) {
+          Placement s = pl;
+          s.origin += rotate(pl.yaw, Vec2(0, side == 0 ? 0.165f : -0.165f));
+          s.yaw += side == 0 ? 0.0f : kPi;
+          bookshelf(s, width, h);
+        }
+        break;
+      }
+    }
   }
 
  private:
@@ -620,28 +745,46 @@ const std::vector<std::string>& builtin_room_names() {
   return names;
 }
 
-Result<Scene> build_room(const std::string& name, uint32_t seed) {
-  Scene scene;
-  if (name == "random") {
-    const uint32_t room_seed = hash32(seed, 0x7200u);
-    const RoomKind kind = static_cast<RoomKind>(room_seed % 5);
-    Builder b(scene, room_seed);
-    build_kind(kind, b);
-    scene.name = "random";
-    return scene;
-  }
+Result<Scene> build_room(const std::string& name, uint32_t seed, RoomLayout layout, TrajectoryKind path) {
   const std::string wanted = name.empty() ? kRooms[0].name : name;
-  for (const NamedRoom& r : kRooms) {
-    if (wanted != r.name) continue;
-    Builder b(scene, r.seed);
-    build_kind(r.kind, b);
-    scene.name = r.name;
-    return scene;
+  RoomKind kind = RoomKind::kLiving;
+  uint32_t room_seed = 0;
+  if (name == "random") {
+    room_seed = hash32(seed, 0x7200u);
+    kind = static_cast<RoomKind>(room_seed % 5);
+  } else {
+    bool known = false;
+    for (const NamedRoom& r : kRooms) {
+      if (wanted != r.name) continue;
+      known = true;
+      kind = r.kind;
+      room_seed = r.seed;
+    }
+    if (!known) {
+      std::string list;
+      for (const NamedRoom& r : kRooms) list += std::string(list.empty() ? "" : ", ") + r.name;
+      return error(ErrorCode::kInvalidArgument,
+                   "synthetic: unknown room '" + name + "' (known: " + list + ", random)");
+    }
   }
-  std::string known;
-  for (const NamedRoom& r : kRooms) known += std::string(known.empty() ? "" : ", ") + r.name;
-  return error(ErrorCode::kInvalidArgument,
-               "synthetic: unknown room '" + name + "' (known: " + known + ", random)");
+  Scene scene;
+  Builder b(scene, room_seed);
+  build_kind(kind, b);
+  scene.name = name == "random" ? "random" : wanted;
+  if (layout == RoomLayout::kWalls) return scene;
+  // The middle group goes where the camera's path through the room without it does not: the
+  // trajectory stays the same, and the camera never passes through the group. 0.4 m is more
+  // than the hand-held loop's clearance (0.33 m to any surface) and the robot's radius (0.3 m);
+  // the hand-held camera may pass over the group, the robot must drive round it.
+  TrajectoryOptions t;
+  t.kind = path;
+  t.seed = seed;
+  EF_ASSIGN_OR_RETURN(const std::vector<Vec3> lap, trajectory_lap(scene, t));
+  if (!b.island(lap, 0.4f, path == TrajectoryKind::kLoop))
+    return error(ErrorCode::kInvalidArgument, "synthetic: no furniture group fits in the middle of room '" + wanted +
+                                                  "' (seed " + std::to_string(seed) +
+                                                  ") clear of the camera's path; try layout=walls or another seed");
+  return scene;
 }
 
 }  // namespace ef::synth

@@ -44,7 +44,7 @@ const std::vector<std::string>& synthetic_room_names() { return synth::builtin_r
 namespace synth {
 
 Result<SyntheticOptions> parse_synthetic_options(const SourceUri& uri) {
-  EF_RETURN_IF_ERROR(check_query_keys(uri, {"seed", "trajectory", "frames", "size", "noise", "camera"}));
+  EF_RETURN_IF_ERROR(check_query_keys(uri, {"seed", "trajectory", "frames", "size", "noise", "camera", "layout"}));
   SyntheticOptions o;
   o.room = uri.path;
   if (!o.room.empty() && o.room != "random") {
@@ -84,6 +84,10 @@ Result<SyntheticOptions> parse_synthetic_options(const SourceUri& uri) {
       if (value == "ideal") o.camera = CameraKind::kIdeal;
       else if (value == "kinect") o.camera = CameraKind::kKinect;
       else return bad_value(key, value, "ideal or kinect");
+    } else if (key == "layout") {
+      if (value == "walls") o.layout = RoomLayout::kWalls;
+      else if (value == "island") o.layout = RoomLayout::kIsland;
+      else return bad_value(key, value, "walls or island");
     }
   }
   return o;
@@ -110,7 +114,7 @@ const SyntheticOptions& SyntheticSource::options() const { return impl_->options
 Result<std::unique_ptr<SyntheticSource>> open_synthetic_source(const SyntheticOptions& options, std::string uri_text) {
   auto impl = std::make_unique<SyntheticSource::Impl>();
   impl->options = options;
-  EF_ASSIGN_OR_RETURN(impl->scene, build_room(options.room, options.seed));
+  EF_ASSIGN_OR_RETURN(impl->scene, build_room(options.room, options.seed, options.layout, options.trajectory));
   TrajectoryOptions t;
   t.kind = options.trajectory;
   t.frames = options.frames;

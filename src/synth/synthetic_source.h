@@ -1,4 +1,5 @@
-// The built-in synthetic frame source: "synthetic:<room>?seed=&trajectory=&frames=&size=&noise=&camera=".
+// The built-in synthetic frame source:
+// "synthetic:<room>?seed=&trajectory=&frames=&size=&noise=&camera=&layout=".
 //
 //   room        "" (the default, living_room), a built-in room (synthetic_room_names()), or
 //               "random" (a room drawn from `seed`)
@@ -11,6 +12,9 @@
 //   camera      ideal (default: the renderer's colour, plus the colour noise above) | kinect (the
 //               colour camera of camera_model.h: motion blur, vignetting, auto-exposure, white
 //               balance, shot noise; with noise=0 everything but the random noise)
+//   layout      walls (default: furniture along the walls, the middle free) | island (also one
+//               group of furniture in the middle, which the hand-held loop circles and which hides
+//               a different part of the room in every view; room_builder.h)
 // Frames carry the exact pose T_wc and the per-pixel class labels. Same URI => same images,
 // bit for bit.
 #pragma once
@@ -24,6 +28,7 @@
 #include "io/frame_source.h"
 #include "synth/camera_model.h"
 #include "synth/depth_noise.h"
+#include "synth/room_builder.h"
 #include "synth/scene.h"
 #include "synth/trajectory.h"
 
@@ -56,6 +61,7 @@ struct SyntheticOptions {
   DepthNoiseOptions noise_options;
   CameraKind camera = CameraKind::kIdeal;
   CameraModelOptions camera_options;  // used with CameraKind::kKinect
+  RoomLayout layout = RoomLayout::kWalls;
 };
 
 // Parses the URI's path and query into options; errors name the offending key or value.

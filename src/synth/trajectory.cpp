@@ -115,7 +115,15 @@ std::vector<SE3> sample(const PathFn& path, int frames, double fps, double v_max
   return out;
 }
 
-Result<std::vector<SE3>> handheld_loop(const Scene& scene, const TrajectoryOptions& o) {
+// A path and the limits its sampling keeps to.
+struct Path {
+  PathFn pose;
+  double speed = 0;        // m/s
+  double turn = 0;         // rad/s
+  double base_height = 0;  // metres: the height the hand-held loop swings around (robot: its height)
+};
+
+Result<Path> handheld_loop(const Scene& scene, const TrajectoryOptions& o) {
   const Wobble w(o.seed);
   Pcg32 rng(o.seed, 0x3c6ef372fe94f82aULL);
   const double W = scene.size.x(), D = scene.size.y(), H = scene.size.z();
@@ -124,7 +132,7 @@ Result<std::vector<SE3>> handheld_loop(const Scene& scene, const TrajectoryOptio
   double a = std::max(0.6, W / 2 - 1.1), b = std::max(0.6, D / 2 - 1.1);
   const double clockwise = rng.chance(0.5f) ? -1.0 : 1.0;
   for (int attempt = 0; attempt < 12; ++attempt, a *= 0.9, b *= 0.9) {
-    const PathFn path = [&, a, b](double s) {
+    const PathFn path = [=](double s) {
       const double u = clockwise * s;
       const Vec3 p(centre.x() + a * (1 + 0.08 * det_sin(2 * u + w.phase[0])) * det_cos(u),
                    centre.y() + b * (1 + 0.08 * det_sin(3 * u + w.phase[1])) * det_sin(u),
@@ -138,12 +146,12 @@ Result<std::vector<SE3>> handheld_loop(const Scene& scene, const TrajectoryOptio
       return make_pose(look_along(target - p, roll), p);
     };
     // Height wobble is not periodic in s (later laps differ), so check the whole band of heights
-    // it can reach (+-0.14 m) at every sample of one lap.
+    // it can reach (+-kHandheldHeightSwing) at every sample of one lap.
     bool clear = true;
     for (int k = 0; k < 720 && clear; ++k) {
       Eigen::Vector3f p = path(kTwoPi * k / 720.0).translation().cast<float>();
       for (int j = -2; j <= 2 && clear; ++j) {
-        p.z() = static_cast<float>(height + 0.07 * j);
+        p.z() = static_cast<float>(height + kHandheldHeightSwing / 2 * j);
         clear = scene.free_space_distance(p) > 0.33f;
       }
     }
@@ -152,12 +160,12 @@ Result<std::vector<SE3>> handheld_loop(const Scene& scene, const TrajectoryOptio
     const double perimeter = 3.3 * (a + b);
     const double seconds = o.frames / o.fps;
     const double v = std::clamp(perimeter / std::max(seconds, 1e-3), 0.3, kMaxHandheldSpeed);
-    return sample(path, o.frames, o.fps, v, kMaxHandheldTurn);
+    return Path{path, v, kMaxHandheldTurn, height};
   }
   return error(ErrorCode::kInternal, "synthetic: no collision-free hand-held loop fits in room '" + scene.name + "'");
 }
 
-Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions& o) {
+Result<Path> robot_path(const Scene& scene, const TrajectoryOptions& o) {
   const Wobble w(o.seed ^ 0x9e3779b9U);
   Pcg32 rng(o.seed, 0x7f4a7c159e3779b9ULL);
   const double W = scene.size.x(), D = scene.size.y();
@@ -170,7 +178,7 @@ Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions&
     for (int shift = 0; shift < 25; ++shift) {
       const Vec3 centre(W / 2 + 0.3 * ((shift % 5) - 2), D / 2 + 0.3 * ((shift / 5) - 2), 0);
       const double a = scale * (W / 2 - 0.5), b = scale * (D / 2 - 0.5);
-      const auto position = [&, a, b](double u) {
+      const auto position = [=](double u) {
         return Vec3(centre.x() + a * (1 + 0.1 * det_sin(2 * u + w.phase[0])) * det_cos(u),
                     centre.y() + b * (1 + 0.1 * det_sin(3 * u + w.phase[1])) * det_sin(u), height);
       };
@@ -178,7 +186,7 @@ Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions&
       for (int k = 0; k < 720 && clear; ++k)
         clear = scene.floor_clearance(position(kTwoPi * k / 720.0).cast<float>(), kRobotTop) > kRobotRadius;
       if (!clear) continue;
-      const PathFn path = [&, position](double s) {
+      const PathFn path = [=](double s) {
         const double u = clockwise * s;
         const Vec3 p = position(u);
         const Vec3 tangent = (position(u + 1e-4) - position(u - 1e-4)) * clockwise;
@@ -188,7 +196,7 @@ Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions&
         det_sincos(heading, sh, ch);
         return make_pose(look_along(Vec3(ch, sh, 0), 0.0), p);
       };
-      return sample(path, o.frames, o.fps, kRobotSpeed, kRobotTurn);
+      return Path{path, kRobotSpeed, kRobotTurn, height};
     }
   }
   return error(ErrorCode::kInternal, "synthetic: no collision-free robot path fits in room '" + scene.name + "'");
@@ -198,7 +206,23 @@ Result<std::vector<SE3>> robot_path(const Scene& scene, const TrajectoryOptions&
 
 Result<std::vector<SE3>> make_trajectory(const Scene& scene, const TrajectoryOptions& options) {
   if (options.frames <= 0) return error(ErrorCode::kInvalidArgument, "synthetic: frames must be positive");
-  return options.kind == TrajectoryKind::kLoop ? handheld_loop(scene, options) : robot_path(scene, options);
+  EF_ASSIGN_OR_RETURN(const Path path,
+                      options.kind == TrajectoryKind::kLoop ? handheld_loop(scene, options) : robot_path(scene, options));
+  return sample(path.pose, options.frames, options.fps, path.speed, path.turn);
+}
+
+Result<std::vector<Eigen::Vector3f>> trajectory_lap(const Scene& scene, const TrajectoryOptions& options) {
+  EF_ASSIGN_OR_RETURN(const Path path,
+                      options.kind == TrajectoryKind::kLoop ? handheld_loop(scene, options) : robot_path(scene, options));
+  constexpr int kSamples = 720;  // every half degree of the path parameter
+  std::vector<Eigen::Vector3f> lap;
+  lap.reserve(kSamples);
+  for (int k = 0; k < kSamples; ++k) {
+    Eigen::Vector3f p = path.pose(kTwoPi * k / kSamples).translation().cast<float>();
+    p.z() = static_cast<float>(path.base_height);
+    lap.push_back(p);
+  }
+  return lap;
 }
 
 }  // namespace ef::synth
