@@ -362,16 +362,16 @@ class Builder {
   }
 
   // --- furniture in the middle of the room (RoomLayout::kIsland) --------------------------------
-  // One group of furniture near the room's middle that keeps `clearance` metres from every point
-  // of `lap` (the camera's path: trajectory_lap) and clear of what the recipe placed. With
-  // `pass_over` (the hand-held loop) the camera may pass over the group, at the lap's base height
-  // less its swing (kHandheldHeightSwing); otherwise (a robot) only the floor-plane distance counts. The
-  // hand-held loop circles it and looks across it, so it hides a different part of the far side
-  // in every view. Variants, drawn from the seed (one that does not fit gives way to the next, and
-  // each is tried at full and reduced width, at the centre and then up to 0.6 m off it, nearest
-  // first): a dining table with a chair at each end, a sofa standing free (its back to one side of
-  // the loop), a kitchen counter with chairs at its front, two bookshelves back to back; last, in
-  // any room, a low table with things on it. False when none fits.
+  // One group of furniture near the room's middle that keeps `clearance` metres from every point of
+  // `lap` (the camera's path: trajectory_lap) and clear of what the recipe placed. With `pass_over`
+  // (the hand-held loop) the camera may pass over the group, at the lap's base height less its swing
+  // (kHandheldHeightSwing); otherwise (a robot) only the floor-plane distance counts. The hand-held
+  // loop circles the group and looks across it, so it hides a different part of the far side in
+  // every view. Variants, drawn from the seed (one that does not fit gives way to the next, and each
+  // is tried at full and reduced width, at the centre and then up to 0.6 m off it, nearest first): a
+  // dining table with a chair at each end, a sofa standing free (its back to one side of the loop),
+  // a kitchen counter with chairs at its front, two bookshelves back to back; last, in any room, a
+  // low table with things on it. False when none fits.
   bool island(const std::vector<Vec3>& lap, float clearance, bool pass_over) {
     const int first = static_cast<int>(rng_.below(4));
     const bool flip = rng_.chance(0.5f);  // which side of the group faces which way

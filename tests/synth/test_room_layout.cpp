@@ -87,12 +87,12 @@ TEST(RoomLayout, IslandAddsAGroupInTheMiddleAndKeepsTheRoomAndThePath) {
   // Every built-in room, and random rooms of every kind, with the hand-held loop: a group fits in
   // all of them (in 100 random seeds, all fitted when this was written).
   for (const std::string& room : synthetic_room_names()) EXPECT_TRUE(check_island(room, 0, TrajectoryKind::kLoop)) << room;
-  for (uint32_t seed = 0; seed < 12; ++seed) EXPECT_TRUE(check_island("random", seed, TrajectoryKind::kLoop)) << seed;
+  for (uint32_t seed = 0; seed < 8; ++seed) EXPECT_TRUE(check_island("random", seed, TrajectoryKind::kLoop)) << seed;
   // The robot drives round the group where it fits; where the path crosses the middle the
   // answer is the error checked inside (about a third of rooms).
   int fitted = 0;
-  for (uint32_t seed = 0; seed < 12; ++seed) fitted += check_island("random", seed, TrajectoryKind::kRobot);
-  EXPECT_GE(fitted, 4);
+  for (uint32_t seed = 0; seed < 8; ++seed) fitted += check_island("random", seed, TrajectoryKind::kRobot);
+  EXPECT_GE(fitted, 3);
 }
 
 TEST(RoomLayout, IslandVariantsCoverTheirClasses) {
