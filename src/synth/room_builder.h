@@ -19,9 +19,10 @@ const std::vector<std::string>& builtin_room_names();
 enum class RoomLayout {
   kWalls,   // along the walls only; the middle stays free (the default)
   kIsland,  // also one group in the middle (a dining table with chairs, a free-standing sofa, a
-            // kitchen counter, or shelves back to back), which the camera's path circles and the
-            // hand-held loop looks across, so that it hides a different part of the room in every
-            // view. The rest of the room is the same as with kWalls.
+            // kitchen counter, shelves back to back, or where none of those fits a low table with
+            // things on it), which the camera's path circles and the hand-held loop looks across,
+            // so that it hides a different part of the room in every view. The rest of the room
+            // is the same as with kWalls.
 };
 
 // Builds a room. `name`: a built-in room (fixed layout: `seed` is ignored), "" for the default

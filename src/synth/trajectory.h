@@ -35,14 +35,15 @@ constexpr double kRobotTurn = 0.6;          // rad/s
 // Fails when no collision-free path fits in the room.
 Result<std::vector<SE3>> make_trajectory(const Scene& scene, const TrajectoryOptions& options);
 
-// The hand-held loop's height swings by up to this much (metres) around its base height, in a
-// different way on every lap.
+// The hand-held loop's height swings by up to this much (metres: its two height waves, 0.1 and
+// 0.04 m) around its base height, in a different way on every lap.
 constexpr double kHandheldHeightSwing = 0.14;
 
 // One lap of the path that make_trajectory samples for `options` (its kind and seed; the frame
 // count does not matter): camera positions (world metres) every half degree of the path's
-// parameter, with z the path's base height (see kHandheldHeightSwing). Furniture added to the room afterwards (RoomLayout::kIsland) keeps clear of it, so
-// the trajectory stays the one of the room without it. Fails as make_trajectory does.
+// parameter, with z the path's base height (see kHandheldHeightSwing). Furniture added to the
+// room afterwards (RoomLayout::kIsland) keeps clear of it, so the trajectory stays the one of the
+// room without it. Fails as make_trajectory does.
 Result<std::vector<Eigen::Vector3f>> trajectory_lap(const Scene& scene, const TrajectoryOptions& options);
 
 }  // namespace ef::synth
