@@ -41,6 +41,22 @@ struct Aabb {
 
 enum class RoomKind { kLiving, kBedroom, kOffice, kKitchen, kLibrary };
 
+// The forms of the middle group (RoomLayout::kIsland), in Builder::island_variant's order. Metres:
+// the main piece's width is drawn in [width_lo, width_hi] and may shrink to min_width; the
+// footprint's half sizes are width / 2 + extra_half_x along it and half_y across it; `top` is the
+// highest point of the group with what stands on it (clutter is up to 0.24 m tall).
+struct IslandVariant {
+  float width_lo, width_hi, min_width, extra_half_x, half_y, top;
+};
+constexpr IslandVariant kIslandVariants[5] = {
+    {0.9f, 1.3f, 0.8f, 0.5f, 0.42f, 0.99f},  // dining table, a chair at each end (backs 0.97 m)
+    {1.6f, 2.0f, 1.4f, 0.0f, 0.45f, 0.85f},  // free-standing sofa
+    {1.0f, 1.5f, 0.8f, 0.0f, 0.8f, 1.18f},   // counter (worktop 0.94 m) and chairs at its front
+    {0.8f, 1.2f, 0.8f, 0.0f, 0.33f, 1.3f},   // two bookshelves back to back, up to 1.3 m
+    {0.7f, 1.0f, 0.6f, 0.0f, 0.28f, 0.69f},  // low table (0.45 m) with things on it
+};
+
+
 class Builder {
  public:
   Builder(Scene& scene, uint32_t seed) : s_(scene), rng_(seed, 0x2545f4914f6cdd1dULL), seed_(seed) {}
@@ -384,31 +400,17 @@ class Builder {
     std::stable_sort(shifts.begin(), shifts.end(), [](const Vec2& a, const Vec2& b) { return a.squaredNorm() < b.squaredNorm(); });
     for (int k = 0; k < 5; ++k) {
       const int variant = k < 4 ? (first + k) % 4 : 4;
-      // Drawn width (metres) of the main piece; footprint half sizes (local x, y) follow from it.
-      float drawn = 0, min_width = 0.8f;
-      switch (variant) {
-        case 0: drawn = rng_.uniform(0.9f, 1.3f); break;
-        case 1: drawn = rng_.uniform(1.6f, 2.0f); min_width = 1.4f; break;
-        case 2: drawn = rng_.uniform(1.0f, 1.5f); break;
-        case 3: drawn = rng_.uniform(0.8f, 1.2f); break;
-        default: drawn = rng_.uniform(0.7f, 1.0f); min_width = 0.6f; break;
-      }
+      const IslandVariant& v = kIslandVariants[variant];
+      const float drawn = rng_.uniform(v.width_lo, v.width_hi);
       for (const float scale : {1.0f, 0.85f, 0.7f}) {
-        const float width = std::max(min_width, drawn * scale);
-        // Footprint half sizes (local x, y) and the top of the tallest part with what stands on
-        // it (metres; clutter is up to 0.24 m tall, a bookshelf's books reach its top shelf).
-        const Vec2 half = variant == 0   ? Vec2(width / 2 + 0.5f, 0.42f)
-                          : variant == 1 ? Vec2(width / 2, 0.45f)
-                          : variant == 2 ? Vec2(width / 2, 0.8f)
-                          : variant == 3 ? Vec2(width / 2, 0.33f)
-                                         : Vec2(width / 2, 0.28f);
-        const float top = variant == 0 ? 0.99f : variant == 1 ? 0.85f : variant == 2 ? 1.18f : variant == 3 ? 1.3f : 0.69f;
+        const float width = std::max(v.min_width, drawn * scale);
+        const Vec2 half(width / 2 + v.extra_half_x, v.half_y);
         for (const Vec2& shift : shifts) {
           Placement pl;
           pl.yaw = yaw;
           pl.origin = Vec2(W() / 2, D() / 2) + shift;
           const Vec3 c(0, 0, 0.5f), h(half.x(), half.y(), 0.5f);
-          if (!is_free(pl, c, h) || !clear_of(lap, pl, half, top, clearance, pass_over)) continue;
+          if (!is_free(pl, c, h) || !clear_of(lap, pl, half, v.top, clearance, pass_over)) continue;
           reserve(pl, c, h);
           island_variant(variant, pl, width);
           return true;
@@ -417,17 +419,21 @@ class Builder {
     }
     return false;
   }
-  // True when every point of `path` is at least `clearance` metres from the box of half sizes
-  // `half` around placement `pl`, from the floor up to `top` metres: in 3-D, with the point
-  // kHandheldHeightSwing lower, when `pass_over`; in the floor plane otherwise.
+  // True when every point of `path` keeps `clearance` metres from the box of half sizes `half`
+  // that stands on the floor under placement `pl`, up to `top` metres (the scene's own box
+  // distance): with `pass_over` (hand-held) the point is taken kHandheldHeightSwing lower, the
+  // lowest the camera gets; otherwise (a robot) at the box's mid-height, so only the floor-plane
+  // distance counts.
   static bool clear_of(const std::vector<Vec3>& path, const Placement& pl, const Vec2& half, float top, float clearance,
                        bool pass_over) {
+    Primitive box;  // a box, never added to the scene
+    box.center = Vec3(pl.origin.x(), pl.origin.y(), top / 2);
+    box.half = Vec3(half.x(), half.y(), top / 2);
+    box.yaw = pl.yaw;
+    det_sincosf(box.yaw, box.sin_yaw, box.cos_yaw);
     for (const Vec3& p : path) {
-      const Vec2 q = rotate(-pl.yaw, Vec2(p.x(), p.y()) - pl.origin);
-      const float dx = std::max(0.0f, std::fabs(q.x()) - half.x());
-      const float dy = std::max(0.0f, std::fabs(q.y()) - half.y());
-      const float dz = pass_over ? std::max(0.0f, p.z() - static_cast<float>(kHandheldHeightSwing) - top) : 0.0f;
-      if (dx * dx + dy * dy + dz * dz < clearance * clearance) return false;
+      const Vec3 q(p.x(), p.y(), pass_over ? p.z() - static_cast<float>(kHandheldHeightSwing) : top / 2);
+      if (box.local_signed_distance(box.to_local(q)) < clearance) return false;
     }
     return true;
   }
