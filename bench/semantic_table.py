@@ -18,7 +18,8 @@ validation 9001..9012, test 7001..7024). Default 5001 5002 5003, 1200 frames eac
 the room's loop, so the end of each sequence revisits its start). --rooms takes the built-in rooms
 instead (synthetic:ROOM, e.g. living_room bedroom office kitchen library: fixed layouts that training,
 which only drew random rooms, never used); --trajectory robot the planar robot path instead of the
-hand-held loop. --model runs another segmentation model (.efm) in place of the shipped one, for
+hand-held loop, --trajectory inspect the inspecting scan (the loop's path, the gaze turning to the
+near wall and back). --model runs another segmentation model (.efm) in place of the shipped one, for
 the CNN row and both runs (the work folder's outputs are then that model's: use a folder per model).
 --camera kinect renders the sequences through the synthetic source's Kinect-like colour camera
 (camera=kinect: motion blur, vignetting, auto-exposure and white balance, shot noise), directly at
@@ -26,7 +27,7 @@ the CNN row and both runs (the work folder's outputs are then that model's: use 
 a model trained on that camera (python3 -m edgefusion_models.train --camera kinect).
 
   /usr/bin/python3 bench/semantic_table.py --edgefusion build/release/firmware_app/edgefusion \\
-      --work /tmp/semantic-table [--seeds 5001 5002 5003 | --rooms ROOM...] [--trajectory loop|robot] \\
+      --work /tmp/semantic-table [--seeds 5001 5002 5003 | --rooms ROOM...] [--trajectory loop|robot|inspect] \\
       [--frames 1200] [--every 10] [--crf-every 500] [--model FILE.efm] [--camera ideal|kinect]
 Prints a Markdown table (per sequence and the mean of the sequences).
 """
@@ -68,7 +69,7 @@ def main():
     ap.add_argument("--seeds", type=int, nargs="+", default=[5001, 5002, 5003])
     ap.add_argument("--rooms", nargs="+", default=[],
                     help="built-in rooms (synthetic:ROOM) to render instead of random seeds")
-    ap.add_argument("--trajectory", choices=["loop", "robot"], default="loop",
+    ap.add_argument("--trajectory", choices=["loop", "robot", "inspect"], default="loop",
                     help="camera path of the rendered sequences (default the hand-held loop)")
     ap.add_argument("--frames", type=int, default=1200)
     ap.add_argument("--every", type=int, default=10, help="evaluate every K-th frame (and fuse every K-th)")

@@ -39,28 +39,32 @@ def frames_of(seed):
     return TRAIN_FRAMES if seed in SPLIT_SEEDS["train"] else EVAL_FRAMES
 
 
-def sequence_uri(seed, camera="ideal", layout="walls"):
+def sequence_uri(seed, camera="ideal", layout="walls", handheld="loop"):
     """The source URI of one sequence; `camera` is the synthetic source's colour camera (ideal: the
     renderer's images, the shipped model's data; kinect: blur, vignetting, exposure, noise);
     `layout` its room layout (walls: the shipped model's data; island: furniture in the middle
-    too, for the hand-held sequences only: on many robot paths none fits)."""
+    too, for the hand-held sequences only: on many robot paths none fits); `handheld` the
+    hand-held trajectory (loop: the shipped model's data; inspect: half of the hand-held
+    sequences, those of odd seeds, turn to the near wall and back, the other half keep the loop)."""
     frames = frames_of(seed)
     trajectory = "robot" if seed % 3 == 0 else "loop"
+    if handheld == "inspect" and trajectory == "loop" and seed % 2 == 1:
+        trajectory = "inspect"
     noise = 0 if seed % 5 == 4 else 1
     uri = f"synthetic:random?seed={seed}&frames={frames}&size={RENDER_SIZE}&trajectory={trajectory}&noise={noise}"
     if camera != "ideal":
         uri += f"&camera={camera}"
-    if layout != "walls" and trajectory == "loop":
+    if layout != "walls" and trajectory != "robot":
         uri += f"&layout={layout}"
     return uri
 
 
-def render_sequence(edgefusion, seed, out_dir, camera="ideal", layout="walls"):
+def render_sequence(edgefusion, seed, out_dir, camera="ideal", layout="walls", handheld="loop"):
     """Writes one sequence as a TUM folder (skipped when it is already complete)."""
     folder = os.path.join(out_dir, f"seed{seed:05d}")
     if os.path.exists(os.path.join(folder, "done")):
         return folder
-    subprocess.run([edgefusion, "convert", "--source", sequence_uri(seed, camera, layout),
+    subprocess.run([edgefusion, "convert", "--source", sequence_uri(seed, camera, layout, handheld),
                     "--resolution", f"{INPUT_WIDTH}x{INPUT_HEIGHT}", "--to", "tum:" + folder],
                    check=True, stdout=subprocess.DEVNULL)
     open(os.path.join(folder, "done"), "w").close()
@@ -83,9 +87,9 @@ def load_tum_folder(folder):
     return np.stack(rgb), np.stack(depth), np.stack(labels)
 
 
-def build_split(edgefusion, split, data_dir, jobs=2, camera="ideal", layout="walls"):
+def build_split(edgefusion, split, data_dir, jobs=2, camera="ideal", layout="walls", handheld="loop"):
     """Renders (if needed) and loads one split; caches the arrays in data_dir/<split>.npz. Use one
-    data_dir per camera and layout: the caches do not record which rendered them."""
+    data_dir per camera, layout and hand-held trajectory: the caches do not record which rendered them."""
     cache = os.path.join(data_dir, f"{split}.npz")
     if os.path.exists(cache):
         z = np.load(cache)
@@ -93,7 +97,7 @@ def build_split(edgefusion, split, data_dir, jobs=2, camera="ideal", layout="wal
     seq_dir = os.path.join(data_dir, "sequences")
     os.makedirs(seq_dir, exist_ok=True)
     with ThreadPoolExecutor(jobs) as pool:
-        folders = list(pool.map(lambda s: render_sequence(edgefusion, s, seq_dir, camera, layout), SPLIT_SEEDS[split]))
+        folders = list(pool.map(lambda s: render_sequence(edgefusion, s, seq_dir, camera, layout, handheld), SPLIT_SEEDS[split]))
     parts = [load_tum_folder(f) for f in folders]
     rgb, depth, labels = (np.concatenate([p[i] for p in parts]) for i in range(3))
     np.savez(cache, rgb=rgb, depth=depth, labels=labels)

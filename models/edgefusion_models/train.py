@@ -99,6 +99,9 @@ def main():
                     help="colour camera of the synthetic data (synthetic source's camera=); give each its own --data-dir")
     ap.add_argument("--layout", choices=["walls", "island"], default="walls",
                     help="room layout of the hand-held sequences (synthetic source's layout=); give each its own --data-dir")
+    ap.add_argument("--handheld", choices=["loop", "inspect"], default="loop",
+                    help="inspect: half the hand-held sequences turn to the near wall and back (synthetic source's "
+                         "trajectory=inspect); give each its own --data-dir")
     args = ap.parse_args()
 
     t_start = time.time()
@@ -107,8 +110,8 @@ def main():
     rng = np.random.default_rng(args.seed)
     device = "cuda" if torch.cuda.is_available() else "cpu"
 
-    train = dataset.build_split(args.edgefusion, "train", args.data_dir, camera=args.camera, layout=args.layout)
-    val = dataset.build_split(args.edgefusion, "val", args.data_dir, camera=args.camera, layout=args.layout)
+    train = dataset.build_split(args.edgefusion, "train", args.data_dir, camera=args.camera, layout=args.layout, handheld=args.handheld)
+    val = dataset.build_split(args.edgefusion, "val", args.data_dir, camera=args.camera, layout=args.layout, handheld=args.handheld)
     print(f"data: {train[0].shape[0]} training frames, {val[0].shape[0]} validation frames "
           f"({time.time() - t_start:.0f} s)", flush=True)
 

@@ -31,6 +31,26 @@ class SequenceUriTest(unittest.TestCase):
         # Robot sequences keep the walls layout: on many robot paths no middle group fits.
         self.assertEqual(dataset.sequence_uri(9, layout="island"), dataset.sequence_uri(9))
 
+    def test_inspecting_scan_goes_to_half_the_hand_held_sequences(self):
+        # Seeds 7 (odd) and 8 (even) are hand-held, 9 is a robot sequence.
+        for seed in (7, 8, 9):
+            self.assertEqual(dataset.sequence_uri(seed, handheld="loop"), dataset.sequence_uri(seed))
+        self.assertEqual(dataset.sequence_uri(7, handheld="inspect"),
+                         dataset.sequence_uri(7).replace("trajectory=loop", "trajectory=inspect"))
+        self.assertNotEqual(dataset.sequence_uri(7, handheld="inspect"), dataset.sequence_uri(7))
+        self.assertEqual(dataset.sequence_uri(8, handheld="inspect"), dataset.sequence_uri(8))
+        self.assertEqual(dataset.sequence_uri(9, handheld="inspect"), dataset.sequence_uri(9))
+        # The island layout goes to the scan too (it walks the loop's path).
+        self.assertEqual(dataset.sequence_uri(7, layout="island", handheld="inspect"),
+                         dataset.sequence_uri(7, handheld="inspect") + "&layout=island")
+        # Of the training split's hand-held sequences, about half scan.
+        seeds = dataset.SPLIT_SEEDS["train"]
+        uris = [dataset.sequence_uri(s, handheld="inspect") for s in seeds]
+        scans = sum("trajectory=inspect" in u for u in uris)
+        loops = sum("trajectory=loop" in u for u in uris)
+        self.assertEqual(scans + loops + sum("trajectory=robot" in u for u in uris), len(seeds))
+        self.assertEqual(scans, loops)
+
     def test_splits_never_share_a_seed(self):
         splits = [set(r) for r in dataset.SPLIT_SEEDS.values()]
         for i in range(len(splits)):

@@ -28,7 +28,7 @@ bool is_camera_lost(const SourceInfo& source, const Error& err) {
 }
 
 const char* source_uri_help() {
-  return "synthetic:, synthetic:ROOM, synthetic:random?seed=N (query: seed, trajectory=loop|robot, frames, "
+  return "synthetic:, synthetic:ROOM, synthetic:random?seed=N (query: seed, trajectory=loop|robot|inspect, frames, "
          "size=WxH, noise=0|1, camera=ideal|kinect, layout=walls|island), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH], openni2:[DEVICE|FILE.oni] "
          "(query: size=WxH, fps, timeout_ms, registration=0|1, fx, fy, cx, cy), v4l2:/dev/videoN (query: "
          "format=rgb|z16, size=WxH, fps, timeout_ms, depth_scale, fx, fy, cx, cy)";

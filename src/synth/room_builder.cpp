@@ -786,7 +786,7 @@ Result<Scene> build_room(const std::string& name, uint32_t seed, RoomLayout layo
   t.kind = path;
   t.seed = seed;
   EF_ASSIGN_OR_RETURN(const std::vector<Vec3> lap, trajectory_lap(scene, t));
-  if (!b.island(lap, 0.4f, path == TrajectoryKind::kLoop))
+  if (!b.island(lap, 0.4f, path != TrajectoryKind::kRobot))
     return error(ErrorCode::kInvalidArgument, "synthetic: no furniture group fits in the middle of room '" + wanted +
                                                   "' (seed " + std::to_string(seed) +
                                                   ") clear of the camera's path; try layout=walls or another seed");

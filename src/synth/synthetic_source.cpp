@@ -64,7 +64,8 @@ Result<SyntheticOptions> parse_synthetic_options(const SourceUri& uri) {
     } else if (key == "trajectory") {
       if (value == "loop") o.trajectory = TrajectoryKind::kLoop;
       else if (value == "robot") o.trajectory = TrajectoryKind::kRobot;
-      else return bad_value(key, value, "loop or robot");
+      else if (value == "inspect") o.trajectory = TrajectoryKind::kInspect;
+      else return bad_value(key, value, "loop, robot or inspect");
     } else if (key == "frames") {
       if (!parse_uint(value, 1, kMaxFrames, v)) return bad_value(key, value, "a positive integer");
       o.frames = static_cast<int>(v);

@@ -5,7 +5,8 @@
 //               "random" (a room drawn from `seed`)
 //   seed        unsigned integer, default 0: the random room, the trajectory's shape and wobble,
 //               and the sensor noise
-//   trajectory  loop (hand-held, default) | robot (planar, 0.3-0.6 m high)
+//   trajectory  loop (hand-held, default) | robot (planar, 0.3-0.6 m high) | inspect (the loop,
+//               turning to the near wall and back: every place seen from across the room and close)
 //   frames      positive integer, default 300; timestamps are index / 30 s
 //   size        WxH, default 640x480 (Kinect-like fx = fy = 525, scaled for other sizes)
 //   noise       1 (default: Kinect-like depth and colour noise) | 0 (exact images)

@@ -123,7 +123,24 @@ struct Path {
   double base_height = 0;  // metres: the height the hand-held loop swings around (robot: its height)
 };
 
+// Gaze of the inspecting scan (TrajectoryKind::kInspect) at position `p`, given the loop's gaze
+// point `target` in the middle and the swing g in [0, 1]: g = 0 looks at the target as the loop
+// does, g = 1 turns half round (through `side`, +1 or -1) to the wall behind, kInspectPitch below
+// the horizon. Yaw and pitch are blended, not the two points, so the gaze never passes the vertical.
+constexpr double kInspectPitch = -0.6;  // radians (34 degrees down): the near wall's furniture, about 1.3 m away
+Vec3 inspect_gaze(const Vec3& p, const Vec3& target, double g, double side) {
+  const Vec3 in = target - p;
+  const double horizontal = std::sqrt(in.x() * in.x() + in.y() * in.y());
+  const double yaw = det_atan2(in.y(), in.x()) + side * (kTwoPi / 2) * g;
+  const double pitch = (1 - g) * det_atan2(in.z(), horizontal) + g * kInspectPitch;
+  double sy, cy, sp, cp;
+  det_sincos(yaw, sy, cy);
+  det_sincos(pitch, sp, cp);
+  return Vec3(cp * cy, cp * sy, sp);
+}
+
 Result<Path> handheld_loop(const Scene& scene, const TrajectoryOptions& o) {
+  const bool inspect = o.kind == TrajectoryKind::kInspect;
   const Wobble w(o.seed);
   Pcg32 rng(o.seed, 0x3c6ef372fe94f82aULL);
   const double W = scene.size.x(), D = scene.size.y(), H = scene.size.z();
@@ -143,7 +160,13 @@ Result<Path> handheld_loop(const Scene& scene, const TrajectoryOptions& o) {
                         centre.y() + 0.45 * D / 5 * det_sin(0.71 * u + w.phase[5]),
                         1.0 + 0.35 * det_sin(1.3 * u + w.phase[6]));
       const double roll = 0.05 * det_sin(1.1 * u + w.phase[7]) + 0.02 * det_sin(2.9 * u + w.phase[8]);
-      return make_pose(look_along(target - p, roll), p);
+      if (!inspect) return make_pose(look_along(target - p, roll), p);
+      // The scan turns from the middle to the near wall and back about 2.4 times a lap (a
+      // frequency incommensurate with the loop, so the next lap turns at other places), with a
+      // dwell at each end (sin of sin: flat there, smooth everywhere, so the pace changes
+      // gently): each place is seen across the room and from close by.
+      const double g = 0.5 - 0.5 * det_sin(kTwoPi / 4 * det_sin(2.37 * u + w.phase[9]));
+      return make_pose(look_along(inspect_gaze(p, target, g, -clockwise), roll), p);
     };
     // Height wobble is not periodic in s (later laps differ), so check the whole band of heights
     // it can reach (+-kHandheldHeightSwing) at every sample of one lap.
@@ -207,13 +230,13 @@ Result<Path> robot_path(const Scene& scene, const TrajectoryOptions& o) {
 Result<std::vector<SE3>> make_trajectory(const Scene& scene, const TrajectoryOptions& options) {
   if (options.frames <= 0) return error(ErrorCode::kInvalidArgument, "synthetic: frames must be positive");
   EF_ASSIGN_OR_RETURN(const Path path,
-                      options.kind == TrajectoryKind::kLoop ? handheld_loop(scene, options) : robot_path(scene, options));
+                      options.kind == TrajectoryKind::kRobot ? robot_path(scene, options) : handheld_loop(scene, options));
   return sample(path.pose, options.frames, options.fps, path.speed, path.turn);
 }
 
 Result<std::vector<Eigen::Vector3f>> trajectory_lap(const Scene& scene, const TrajectoryOptions& options) {
   EF_ASSIGN_OR_RETURN(const Path path,
-                      options.kind == TrajectoryKind::kLoop ? handheld_loop(scene, options) : robot_path(scene, options));
+                      options.kind == TrajectoryKind::kRobot ? robot_path(scene, options) : handheld_loop(scene, options));
   constexpr int kSamples = 720;  // every half degree of the path parameter
   std::vector<Eigen::Vector3f> lap;
   lap.reserve(kSamples);

@@ -16,6 +16,10 @@ enum class TrajectoryKind {
            // different line of sight (loop closures)
   kRobot,  // planar: camera 0.3-0.6 m above the floor, level, on a smooth closed path that keeps
            // 0.3 m from every floor-standing object, looking ahead and slightly inwards
+  kInspect,  // hand-held, inspecting: the loop's path, but the gaze turns (through the walking
+             // direction) from the middle to the near wall and its furniture, 34 degrees down, and
+             // back, about 2.4 times a lap: every place is seen across the room and from ~1.3 m
+             // (the paper's office scan, "loopy both locally and globally")
 };
 
 struct TrajectoryOptions {

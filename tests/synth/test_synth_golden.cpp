@@ -131,6 +131,9 @@ constexpr Golden kGolden[] = {
     // The Kinect-like colour camera (camera_model.h): blur over interpolated poses, exposure, noise.
     {"synthetic:random?seed=7&frames=60&size=160x120&camera=kinect", {3, 57},
      0xdf51330a3a58a566ULL, 0x43561c90f6149951ULL, 0x8c3c6d2ed16da5b3ULL, 0x3134d1e1b47e8438ULL, 0x2b2e77d17f61e6e1ULL},
+    // The inspecting scan: the loop's path, the gaze turning to the near wall and back.
+    {"synthetic:random?seed=7&frames=60&size=160x120&trajectory=inspect", {3, 57},
+     0xdf51330a3a58a566ULL, 0x9a61c4a5f42d1df2ULL, 0x1ae7ce47119f7780ULL, 0x8df38177f2e25e99ULL, 0x3ea877c9635c4f6fULL},
 };
 
 TEST(SynthGolden, FramesAndPosesMatchRecordedHashes) {
