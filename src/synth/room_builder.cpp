@@ -56,7 +56,6 @@ constexpr IslandVariant kIslandVariants[5] = {
     {0.7f, 1.0f, 0.6f, 0.0f, 0.28f, 0.69f},  // low table (0.45 m) with things on it
 };
 
-
 class Builder {
  public:
   Builder(Scene& scene, uint32_t seed) : s_(scene), rng_(seed, 0x2545f4914f6cdd1dULL), seed_(seed) {}
@@ -786,7 +785,7 @@ Result<Scene> build_room(const std::string& name, uint32_t seed, RoomLayout layo
   t.kind = path;
   t.seed = seed;
   EF_ASSIGN_OR_RETURN(const std::vector<Vec3> lap, trajectory_lap(scene, t));
-  if (!b.island(lap, 0.4f, path != TrajectoryKind::kRobot))
+  if (!b.island(lap, 0.4f, is_handheld(path)))
     return error(ErrorCode::kInvalidArgument, "synthetic: no furniture group fits in the middle of room '" + wanted +
                                                   "' (seed " + std::to_string(seed) +
                                                   ") clear of the camera's path; try layout=walls or another seed");

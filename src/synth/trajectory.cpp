@@ -225,18 +225,21 @@ Result<Path> robot_path(const Scene& scene, const TrajectoryOptions& o) {
   return error(ErrorCode::kInternal, "synthetic: no collision-free robot path fits in room '" + scene.name + "'");
 }
 
+// The path of `options`' kind and seed through the room.
+Result<Path> make_path(const Scene& scene, const TrajectoryOptions& options) {
+  return is_handheld(options.kind) ? handheld_loop(scene, options) : robot_path(scene, options);
+}
+
 }  // namespace
 
 Result<std::vector<SE3>> make_trajectory(const Scene& scene, const TrajectoryOptions& options) {
   if (options.frames <= 0) return error(ErrorCode::kInvalidArgument, "synthetic: frames must be positive");
-  EF_ASSIGN_OR_RETURN(const Path path,
-                      options.kind == TrajectoryKind::kRobot ? robot_path(scene, options) : handheld_loop(scene, options));
+  EF_ASSIGN_OR_RETURN(const Path path, make_path(scene, options));
   return sample(path.pose, options.frames, options.fps, path.speed, path.turn);
 }
 
 Result<std::vector<Eigen::Vector3f>> trajectory_lap(const Scene& scene, const TrajectoryOptions& options) {
-  EF_ASSIGN_OR_RETURN(const Path path,
-                      options.kind == TrajectoryKind::kRobot ? robot_path(scene, options) : handheld_loop(scene, options));
+  EF_ASSIGN_OR_RETURN(const Path path, make_path(scene, options));
   constexpr int kSamples = 720;  // every half degree of the path parameter
   std::vector<Eigen::Vector3f> lap;
   lap.reserve(kSamples);

@@ -22,6 +22,9 @@ enum class TrajectoryKind {
              // (the paper's office scan, "loopy both locally and globally")
 };
 
+// The hand-held kinds (kLoop, kInspect) share one path through the room; kRobot has its own.
+constexpr bool is_handheld(TrajectoryKind kind) { return kind != TrajectoryKind::kRobot; }
+
 struct TrajectoryOptions {
   TrajectoryKind kind = TrajectoryKind::kLoop;
   int frames = 300;        // poses to generate

@@ -78,6 +78,23 @@ TEST(SynthTrajectory, RobotPathIsPlanarLevelAndClear) {
   }
 }
 
+// Median of the measured (non-zero) depths of a frame, metres (0 when none), and their count.
+float median_valid_depth(const Frame& f, std::size_t* valid = nullptr) {
+  std::vector<float> z;
+  for (std::size_t p = 0; p < f.depth.size(); ++p)
+    if (f.depth.data()[p] > 0) z.push_back(f.depth.data()[p]);
+  if (valid != nullptr) *valid = z.size();
+  if (z.empty()) return 0;
+  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+  return z[z.size() / 2];
+}
+
+float median_of(std::vector<float> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
 TEST(SynthTrajectory, ViewsContainGeometryAtSensorRange) {
   // Median depth between 0.8 (the inspecting scan's close views: 0.55) and 4.5 m on every 10th
   // frame, and most of the noisy depth valid.
@@ -88,13 +105,11 @@ TEST(SynthTrajectory, ViewsContainGeometryAtSensorRange) {
       Frame f;
       for (int64_t i = 0; i < 300; i += 10) {
         ASSERT_TRUE(src->render(i, f).ok());
-        std::vector<float> z;
-        for (std::size_t p = 0; p < f.depth.size(); ++p)
-          if (f.depth.data()[p] > 0) z.push_back(f.depth.data()[p]);
-        ASSERT_GT(z.size(), f.depth.size() * 4 / 10) << room << " " << traj << " frame " << i;
-        std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
-        EXPECT_GT(z[z.size() / 2], std::string(traj) == "inspect" ? 0.55f : 0.8f) << room << " " << traj << " frame " << i;
-        EXPECT_LT(z[z.size() / 2], 4.5f) << room << " " << traj << " frame " << i;
+        std::size_t valid = 0;
+        const float median = median_valid_depth(f, &valid);
+        ASSERT_GT(valid, f.depth.size() * 4 / 10) << room << " " << traj << " frame " << i;
+        EXPECT_GT(median, std::string(traj) == "inspect" ? 0.55f : 0.8f) << room << " " << traj << " frame " << i;
+        EXPECT_LT(median, 4.5f) << room << " " << traj << " frame " << i;
       }
     }
   }
@@ -106,12 +121,6 @@ struct GazeSplit {
   double outward_fraction = 0;
   float median_depth_out = 0, median_depth_in = 0;
 };
-
-float median_of(std::vector<float>& v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
 
 GazeSplit gaze_split(synth::SyntheticSource& src) {
   const Eigen::Vector3d centre(src.scene().size.x() / 2, src.scene().size.y() / 2, 0);
@@ -126,10 +135,7 @@ GazeSplit gaze_split(synth::SyntheticSource& src) {
     outward += out;
     if (i % 10 != 0) continue;
     EXPECT_TRUE(src.render(static_cast<int64_t>(i), f).ok());
-    std::vector<float> z;
-    for (std::size_t p = 0; p < f.depth.size(); ++p)
-      if (f.depth.data()[p] > 0) z.push_back(f.depth.data()[p]);
-    (out ? depth_out : depth_in).push_back(median_of(z));
+    (out ? depth_out : depth_in).push_back(median_valid_depth(f));
   }
   return {static_cast<double>(outward) / static_cast<double>(T.size()), median_of(depth_out), median_of(depth_in)};
 }
