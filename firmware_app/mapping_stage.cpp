@@ -11,6 +11,9 @@ slam::SurfelSlamOptions slam_options(const RunConfig& config) {
   o.pool.capacity = config.surfel_capacity;
   o.tracker.icp_weight = config.icp_weight;
   o.tracker.rgb_weight = config.rgb_weight;
+  o.tracker.rgb_boost_condition = config.rgb_boost_condition;
+  o.tracker.rgb_boost_max = config.rgb_boost_max;
+  o.constant_velocity_guess = config.constant_velocity_guess;
   o.preprocess.depth_cutoff_m = config.depth_cutoff_m;
   o.prediction.index_map_scale = config.index_map_scale;
   o.associate_at_tracked_pose = config.associate_at_tracked_pose;

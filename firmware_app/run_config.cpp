@@ -47,6 +47,14 @@ constexpr OptionDoc kOptions[] = {
      "surfels in the map's pool, allocated at start-up (60 bytes each), 1..100000000; default 1000000"},
     {"mapping.icp_weight", "icp_weight", "tracking: weight of the ICP term, >= 0; default 10"},
     {"mapping.rgb_weight", "rgb_weight", "tracking: weight of the photometric term, >= 0; default 0.25"},
+    {"mapping.rgb_boost_condition", "rgb_boost_condition",
+     "tracking: the photometric weight rises where the ICP term's condition number exceeds this, 0 (off) "
+     "or > 1; default 500"},
+    {"mapping.rgb_boost_max", "rgb_boost_max",
+     "tracking: the most the photometric weight rises there (a factor on rgb_weight), >= 1; default 16"},
+    {"mapping.constant_velocity_guess", "constant_velocity_guess",
+     "tracking starts each frame from the last pose times the last motion; false = from the last pose "
+     "(ElasticFusion); default true"},
     {"mapping.depth_cutoff_m", "depth_cutoff_m", "metres, > 0; depths beyond are ignored; default 8"},
     {"mapping.index_map_scale", "index_map_scale",
      "index map cells per working pixel along each axis, 1..4; 4 = ElasticFusion's, slower for the same "
@@ -173,6 +181,9 @@ std::string value_text(const RunConfig& c, const std::string& path) {
   if (path == "mapping.surfel_capacity") return std::to_string(c.surfel_capacity);
   if (path == "mapping.icp_weight") return number_text(c.icp_weight);
   if (path == "mapping.rgb_weight") return number_text(c.rgb_weight);
+  if (path == "mapping.rgb_boost_condition") return number_text(c.rgb_boost_condition);
+  if (path == "mapping.rgb_boost_max") return number_text(c.rgb_boost_max);
+  if (path == "mapping.constant_velocity_guess") return bool_text(c.constant_velocity_guess);
   if (path == "mapping.depth_cutoff_m") return number_text(c.depth_cutoff_m);
   if (path == "mapping.index_map_scale") return std::to_string(c.index_map_scale);
   if (path == "mapping.associate_at_tracked_pose") return bool_text(c.associate_at_tracked_pose);
@@ -373,8 +384,8 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     else config.gpio.debounce_ms = static_cast<int>(*v);
   } else if (path == "progress" || path == "map" || path == "realtime" || path == "labels.enabled" ||
              path == "labels.visibility" || path == "mapping.associate_at_tracked_pose" ||
-             path == "crf.final" || path == "gpio.led_active_low" || path == "gpio.button_active_low" ||
-             path == "gpio.optional") {
+             path == "mapping.constant_velocity_guess" || path == "crf.final" || path == "gpio.led_active_low" ||
+             path == "gpio.button_active_low" || path == "gpio.optional") {
     bool v = false;
     if (value == "true" || value == "True" || value == "TRUE" || value == "yes" || value == "on") v = true;
     else if (value == "false" || value == "False" || value == "FALSE" || value == "no" || value == "off") v = false;
@@ -385,6 +396,7 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     else if (path == "labels.enabled") config.labels = v;
     else if (path == "labels.visibility") config.label_visibility = v;
     else if (path == "mapping.associate_at_tracked_pose") config.associate_at_tracked_pose = v;
+    else if (path == "mapping.constant_velocity_guess") config.constant_velocity_guess = v;
     else if (path == "gpio.led_active_low") config.gpio.led.active_low = v;
     else if (path == "gpio.button_active_low") config.gpio.button.active_low = v;
     else if (path == "gpio.optional") config.gpio.optional = v;
@@ -427,15 +439,19 @@ Status apply_config_value(const std::string& key, const std::string& value, cons
     auto v = parse_integer(value, 1, 1'000'000);
     if (!v.ok()) return bad("is not an integer in 1..1000000 (MB)");
     config.memory_budget_mb = *v;
-  } else {  // mapping.icp_weight, mapping.rgb_weight, mapping.depth_cutoff_m
+  } else {  // mapping.icp_weight, rgb_weight, rgb_boost_condition, rgb_boost_max, depth_cutoff_m
     errno = 0;
     char* end = nullptr;
     const double v = std::strtod(value.c_str(), &end);
     if (value.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v) || v < 0)
       return bad("is not a finite number >= 0");
     if (path == "mapping.depth_cutoff_m" && v <= 0) return bad("must be > 0 (metres)");
+    if (path == "mapping.rgb_boost_condition" && v > 0 && v <= 1) return bad("must be 0 (off) or > 1");
+    if (path == "mapping.rgb_boost_max" && v < 1) return bad("must be >= 1 (a factor)");
     if (path == "mapping.icp_weight") config.icp_weight = v;
     else if (path == "mapping.rgb_weight") config.rgb_weight = v;
+    else if (path == "mapping.rgb_boost_condition") config.rgb_boost_condition = v;
+    else if (path == "mapping.rgb_boost_max") config.rgb_boost_max = v;
     else config.depth_cutoff_m = static_cast<float>(v);
   }
   return Status::success();

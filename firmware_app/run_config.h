@@ -42,6 +42,10 @@ struct RunConfig {
   int64_t surfel_capacity = 1'000'000;  // surfels in the pool, allocated at start-up (1..100,000,000)
   double icp_weight = 10.0;             // tracking: relative weight of the ICP term (>= 0)
   double rgb_weight = 0.25;             // tracking: relative weight of the photometric term (>= 0)
+  double rgb_boost_condition = 500.0;   // tracking: ICP condition number above which the RGB weight
+                                        // rises (0 = off, else > 1; slam::TrackerOptions)
+  double rgb_boost_max = 16.0;          // tracking: the most it rises, a factor on rgb_weight (>= 1)
+  bool constant_velocity_guess = true;   // tracking's guess: last pose x last motion (false: last pose)
   float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres (> 0)
   int index_map_scale = 1;              // index map cells per working pixel along each axis (1..4)
   bool associate_at_tracked_pose = true;  // fusion's index map at the tracked pose (false: the

@@ -47,6 +47,20 @@ void accumulate(const double* upper, double c, Matrix6d* H, Vector6d* g) {
   }
 }
 
+// The factor on the RGB weight for a step whose ICP term has these normal equations (upper
+// triangle; see TrackerOptions::rgb_boost_condition): clamp(condition / rgb_boost_condition, 1,
+// rgb_boost_max), the largest where the ICP system is singular (no ICP inliers, or a plane).
+double rgb_boost_for(const double* icp_upper, const TrackerOptions& o) {
+  if (o.rgb_boost_condition <= 0) return 1.0;
+  Matrix6d H = Matrix6d::Zero();
+  Vector6d g = Vector6d::Zero();
+  accumulate(icp_upper, 1.0, &H, &g);
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H, Eigen::EigenvaluesOnly);
+  const double lmin = eig.eigenvalues()(0), lmax = eig.eigenvalues()(5);
+  if (!(lmin > 0)) return o.rgb_boost_max;
+  return std::clamp(lmax / lmin / o.rgb_boost_condition, 1.0, o.rgb_boost_max);
+}
+
 template <class T>
 bool float_strided(const ImageView<const T>& v) {
   return v.stride_bytes % sizeof(float) == 0;
@@ -152,6 +166,9 @@ Status TrackerOptions::validate() const {
   if (!(icp_depth_weight_ref_m > 0.4f && icp_depth_weight_ref_m < 100.0f)) return bad("icp_depth_weight_ref_m");
   if (!finite_positive(icp_max_distance_m)) return bad("icp_max_distance_m");
   if (!(icp_max_normal_angle_deg > 0 && icp_max_normal_angle_deg <= 90)) return bad("icp_max_normal_angle_deg");
+  if (!(rgb_boost_condition == 0 || (rgb_boost_condition > 1 && std::isfinite(rgb_boost_condition))))
+    return bad("rgb_boost_condition");
+  if (!(rgb_boost_max >= 1) || !std::isfinite(rgb_boost_max)) return bad("rgb_boost_max");
   if (!finite_positive(rgb_sigma_grey)) return bad("rgb_sigma_grey");
   if (!finite_positive(rgb_huber_k)) return bad("rgb_huber_k");
   if (!finite_positive(rgb_max_depth_diff_m)) return bad("rgb_max_depth_diff_m");
@@ -177,7 +194,9 @@ std::string TrackerOptions::describe() const {
     << (icp_depth_weighting ? "on" : "off") << "\nicp_depth_weight_ref_m " << icp_depth_weight_ref_m
     << " m\nicp_max_distance_m "
     << icp_max_distance_m << " m\nicp_max_normal_angle_deg " << icp_max_normal_angle_deg << " deg\nrgb_weight "
-    << rgb_weight << "\nrgb_sigma_grey " << rgb_sigma_grey << " grey levels\nrgb_huber_k " << rgb_huber_k
+    << rgb_weight << "\nrgb_boost_condition " << rgb_boost_condition << (rgb_boost_condition > 0 ? "" : " (off)")
+    << "\nrgb_boost_max " << rgb_boost_max << "\nrgb_sigma_grey " << rgb_sigma_grey << " grey levels\nrgb_huber_k "
+    << rgb_huber_k
     << " sigma\nrgb_max_depth_diff_m " << rgb_max_depth_diff_m << " m\nrgb_max_depth_m " << rgb_max_depth_m
     << " m\nlost_min_inlier_fraction " << lost_min_inlier_fraction << "\nlost_min_inliers " << lost_min_inliers
     << " px\nlost_max_icp_rms_m " << lost_max_icp_rms_m << " m\nlost_max_rgb_rms_grey " << lost_max_rgb_rms_grey
@@ -470,13 +489,15 @@ Status Tracker::track(const PyramidView& reference, const PyramidView& current, 
 
   // Linearises level l at pose T into H and g (normalised and weighted); fills lin.
   Linearisation lin;
+  double rgb_boost = 1.0;  // of the last linearisation
   const auto linearise_at = [&](int l, Matrix6d* H, Vector6d* g) {
     linearise(reference.level[l], current.level[l], T.rotation_matrix().cast<float>(), T.translation().cast<float>(),
               icp_on, rgb_level[l], nullptr, &lin);
     H->setZero();
     g->setZero();
     if (icp_on) accumulate(lin.icp, c_icp, H, g);
-    if (rgb_level[l]) accumulate(lin.rgb, c_rgb, H, g);
+    rgb_boost = icp_on && rgb_level[l] ? rgb_boost_for(lin.icp, options_) : 1.0;
+    if (rgb_level[l]) accumulate(lin.rgb, c_rgb * rgb_boost, H, g);
   };
 
   Matrix6d H;
@@ -511,6 +532,7 @@ Status Tracker::track(const PyramidView& reference, const PyramidView& current, 
   res.valid_current = lin.valid;
   res.icp_inliers = lin.icp_inliers;
   res.rgb_inliers = lin.rgb_inliers;
+  res.rgb_boost = rgb_boost;
   const int r2 = kernels::ne_index(6, 6);
   res.icp_rms_m = lin.icp_inliers > 0 ? std::sqrt(lin.icp[r2] / static_cast<double>(lin.icp_inliers)) : 0.0;
   res.rgb_rms_grey = lin.rgb_inliers > 0 ? std::sqrt(lin.rgb[r2] / static_cast<double>(lin.rgb_inliers)) : 0.0;

@@ -52,9 +52,12 @@ void expect_same(const RunConfig& a, const RunConfig& b) {
   EXPECT_EQ(a.surfel_capacity, b.surfel_capacity);
   EXPECT_EQ(a.icp_weight, b.icp_weight);
   EXPECT_EQ(a.rgb_weight, b.rgb_weight);
+  EXPECT_EQ(a.rgb_boost_condition, b.rgb_boost_condition);
+  EXPECT_EQ(a.rgb_boost_max, b.rgb_boost_max);
   EXPECT_EQ(a.depth_cutoff_m, b.depth_cutoff_m);
   EXPECT_EQ(a.index_map_scale, b.index_map_scale);
   EXPECT_EQ(a.associate_at_tracked_pose, b.associate_at_tracked_pose);
+  EXPECT_EQ(a.constant_velocity_guess, b.constant_velocity_guess);
   EXPECT_EQ(a.labels, b.labels);
   EXPECT_EQ(a.model, b.model);
   EXPECT_EQ(a.label_every, b.label_every);
@@ -209,6 +212,8 @@ TEST(ConfigYaml, EveryErrorNamesFileLineKeyAndValue) {
       {"mapping:\n  surfel_capacity: lots\n", {"line 2", "'mapping.surfel_capacity'", "lots"}},
       {"mapping:\n  surfel_capacity: 0\n", {"line 2", "'mapping.surfel_capacity'", "'0'"}},
       {"mapping: {depth_cutoff_m: -1}\n", {"'mapping.depth_cutoff_m'", "-1"}},
+      {"mapping: {rgb_boost_condition: 0.5}\n", {"'mapping.rgb_boost_condition'", "0 (off) or > 1"}},
+      {"mapping: {rgb_boost_max: 0.5}\n", {"'mapping.rgb_boost_max'", ">= 1"}},
       {"mapping: {index_map_scale: 8}\n", {"'mapping.index_map_scale'", "'8'", "1..4"}},
       {"memory: {budget_mb: 0}\n", {"'memory.budget_mb'", "'0'"}},
       {"labels: {every: 0}\n", {"'labels.every'", "'0'"}},
@@ -283,9 +288,12 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.surfel_capacity = 54321;
   c.icp_weight = 0.1;
   c.rgb_weight = 1.0 / 3.0;
+  c.rgb_boost_condition = 0;
+  c.rgb_boost_max = 2.5;
   c.depth_cutoff_m = 3.3f;
   c.index_map_scale = 3;
   c.associate_at_tracked_pose = false;
+  c.constant_velocity_guess = true;
   c.labels = false;
   c.model = "{model}.efm";
   c.label_every = 7;

@@ -131,6 +131,15 @@ TEST(Tracker, OptionsValidateAndDescribe) {
   o = {};
   o.so3_level = -2;
   EXPECT_FALSE(o.validate().ok());
+  o = {};
+  o.rgb_boost_condition = 1;  // 0 (off) or > 1
+  EXPECT_FALSE(o.validate().ok());
+  o.rgb_boost_condition = 0;
+  EXPECT_TRUE(o.validate().ok());
+  EXPECT_NE(o.describe().find("rgb_boost_condition 0 (off)"), std::string::npos);
+  o = {};
+  o.rgb_boost_max = 0.5;  // a factor >= 1
+  EXPECT_FALSE(o.validate().ok());
   EXPECT_FALSE(TrackerOptions{}.so3_prealign);  // off here (tracker.h says why); ElasticFusion: on
   EXPECT_NE(TrackerOptions{}.describe().find("so3_prealign off"), std::string::npos);
   EXPECT_TRUE(TrackerOptions{}.icp_depth_weighting);
@@ -313,6 +322,41 @@ TEST(Tracker, PlaneIsIllConditionedForIcpAlone) {
   const TrackResult rj = run(*p);
   report("textured plane, joint", *p, rj);
   EXPECT_LT(rj.condition, ri.condition);
+  // ICP's own system is as singular here as it gets, so the photometric weight is at its most.
+  EXPECT_EQ(rj.rgb_boost, TrackerOptions{}.rgb_boost_max);
+}
+
+TEST(Tracker, RgbWeightRisesWithTheIcpCondition) {
+  // The factor on the photometric weight is clamp(c / rgb_boost_condition, 1, rgb_boost_max), c the
+  // condition number of the ICP term's own system. c is measured by an ICP-only run (its condition
+  // is that of the ICP system: scaling a system leaves it unchanged).
+  const SE3 delta = SE3::exp((Vector6d() << 0.01, 0.008, -0.012, 0.01, -0.008, 0.012).finished());
+  auto p = synth_pair_at(kOfficeClean, 20, delta);
+  TrackerOptions icp_only;
+  icp_only.rgb_weight = 0;
+  const double c_icp = run(*p, icp_only).condition;
+  std::printf("office: ICP-only condition %.0f\n", c_icp);
+  // A room constrains ICP well (7-Scenes: 72-371; tracker.h): no boost, and the pose is bit for bit
+  // that of the tracker without the option.
+  ASSERT_LT(c_icp, TrackerOptions{}.rgb_boost_condition);
+  const TrackResult r_default = run(*p);
+  EXPECT_EQ(r_default.rgb_boost, 1.0);
+  TrackerOptions off;
+  off.rgb_boost_condition = 0;
+  const TrackResult r_off = run(*p, off);
+  EXPECT_EQ(r_off.rgb_boost, 1.0);
+  EXPECT_EQ(r_default.T_ref_cur.matrix(), r_off.T_ref_cur.matrix());
+  // A threshold a third of c: the factor is 3, within the difference of the two final poses' systems.
+  TrackerOptions third;
+  third.rgb_boost_condition = c_icp / 3;
+  const TrackResult r3 = run(*p, third);
+  EXPECT_NEAR(r3.rgb_boost, 3.0, 0.15);
+  expect_tracked("joint, RGB weight x3", *p, r3, 0.003, 0.15);
+  // A threshold of a hundredth: clamped at rgb_boost_max.
+  TrackerOptions low;
+  low.rgb_boost_condition = std::max(1.5, c_icp / 100);
+  low.rgb_boost_max = 8;
+  EXPECT_EQ(run(*p, low).rgb_boost, 8.0);
 }
 
 // Frame-to-frame over the first 30 frames of 7-Scenes: every step against the reference poses, and the
