@@ -132,6 +132,11 @@ Result<long long> parse_integer(const std::string& value, long long lo, long lon
 // The shortest decimal text that reads back (strtod) as exactly `v`.
 std::string number_text(double v) {
   char buf[40];
+  // Whole numbers in full ("10", "500"): the shortest %g would write "1e+01" and "5e+02".
+  if (v == std::trunc(v) && std::fabs(v) < 1e15) {
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+    return buf;
+  }
   for (int precision = 1; precision <= 17; ++precision) {
     std::snprintf(buf, sizeof buf, "%.*g", precision, v);
     if (std::strtod(buf, nullptr) == v) break;
@@ -141,6 +146,10 @@ std::string number_text(double v) {
 // The same for a float read as strtod then narrowed (as apply_config_value does).
 std::string number_text(float v) {
   char buf[40];
+  if (v == std::trunc(v) && std::fabs(v) < 1e7f) {
+    std::snprintf(buf, sizeof buf, "%.0f", static_cast<double>(v));
+    return buf;
+  }
   for (int precision = 1; precision <= 9; ++precision) {
     std::snprintf(buf, sizeof buf, "%.*g", precision, static_cast<double>(v));
     if (static_cast<float>(std::strtod(buf, nullptr)) == v) break;

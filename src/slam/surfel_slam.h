@@ -4,7 +4,7 @@
 //   frame k ──preprocess──> pyramids (slam/preprocess.h)
 //           ──track──────> T_world_cam(k), frame-to-model: the reference is the model predicted at
 //                          the pose of the last tracked frame (slam/model_prediction.h), the guess
-//                          is "no motion" (ElasticFusion) or constant velocity (option)
+//                          is constant velocity (default) or "no motion" (ElasticFusion; option)
 //           ──fuse───────> the surfel pool (slam/surfel_fusion.h), associating through the index map
 //                          rendered at T_world_cam(k) just before (ElasticFusion; option
 //                          associate_at_tracked_pose)
@@ -12,8 +12,9 @@
 //           ──predict────> model maps + index map at T_world_cam(k), for frame k+1
 //
 // A lost frame (TrackResult::lost) is not fused and does not move the prediction: the next frame is
-// tracked against the same model view, with the last good pose as the guess. Its reported pose is
-// the last good pose. The first frame is fused at `initial_pose` (identity by default).
+// tracked against the same model view, from the same guess (the last good pose, times the last good
+// motion with constant_velocity_guess). Its reported pose is the last good pose. The first frame is
+// fused at `initial_pose` (identity by default).
 //
 // Memory: create() sizes everything from the options (pool capacity, working resolution);
 // process() does not touch the heap. Threads: one SurfelSlam per mapping thread.

@@ -25,7 +25,9 @@
 // rgb_weight = 0 here). With the defaults (sigma 1 cm and 10 grey levels) a geometrically
 // well-constrained direction is dominated by ICP; RGB matters where the geometry is degenerate (a wall,
 // a floor), which is what the joint term is for. 7-Scenes colour and depth are not precisely
-// registered, hence the down-weighting and the Huber loss.
+// registered, hence the down-weighting and the Huber loss. Where the ICP term's own system is
+// ill-conditioned (a near wall or corner), each step raises the RGB weight by up to rgb_boost_max
+// (TrackerOptions::rgb_boost_condition says how and why).
 //
 // Twist convention (consistent with SE3::exp): xi = (v, w), v translation (metres), w rotation
 // (axis-angle, radians), applied by LEFT multiplication: T <- exp(xi) * T. For a point x = T p in the

@@ -268,6 +268,10 @@ TEST(ConfigYaml, DescribeDocumentsEveryKeyWithItsDefault) {
   }
   for (const char* section : {"\nmapping:\n", "\nlabels:\n", "\ncrf:\n", "\nmemory:\n"})
     EXPECT_NE(text.find(section), std::string::npos) << section;
+  // Whole numbers are written in full, not as the shortest %g ("1e+01").
+  EXPECT_NE(text.find("icp_weight: 10 "), std::string::npos) << text;
+  EXPECT_NE(text.find("rgb_boost_condition: 500 "), std::string::npos) << text;
+  EXPECT_EQ(text.find("e+0"), std::string::npos) << text;
 }
 
 TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
