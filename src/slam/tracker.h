@@ -175,8 +175,8 @@ struct TrackerOptions {
   // modes. 7-Scenes' colour is not registered to its depth and a strong RGB term costs ATE there
   // (rgb_weight 4: 3.89 cm against 2.67), but the inspecting synthetic scans, whose views of a near
   // wall leave ICP one direction it cannot see, slip to wrong minima at 0.25 (ATE up to 1.66 m) and
-  // track within 9.3 mm at 4. Measured ICP-only condition at every level and step: 7-Scenes 72-371
-  // (1000 frames), the synthetic scans up to 5e4, above 3e3 in a tenth of the steps. The factor is
+  // track within 9.3 mm at 4. Measured ICP-only condition at the end of every level of every frame:
+  // 7-Scenes 72-371 (1000 frames), the synthetic scans up to 5e4, above 3e3 in a tenth. The factor is
   // at most 16 (= rgb_weight 4) where ICP is blind. 500 against 1000, with the last pose as the guess
   // (docs/results.md, SLAM, "Tracking a close inspecting scan"): 7-Scenes ATE 2.66 / 2.67 cm; the
   // eleven synthetic scans all within 11 mm but office (114 / 105 mm) and seed 5005 (237 / 268 mm) at
