@@ -73,6 +73,13 @@ RunOutput run_sequence(const std::string& uri, int max_frames, const SurfelSlamO
   return out;
 }
 
+// The run covered all `frames` frames and lost none (callers wrap it in ASSERT_NO_FATAL_FAILURE,
+// so that a short run stops the test).
+void expect_every_frame_tracked(const RunOutput& o, int frames) {
+  ASSERT_EQ(o.estimate.size(), static_cast<std::size_t>(frames));
+  EXPECT_EQ(o.lost, 0);
+}
+
 double ate_rmse(const RunOutput& o) {
   Trajectory gt{"reference", o.reference}, est{"estimate", o.estimate};
   auto ate = evaluate_ate(gt, est);
@@ -85,8 +92,7 @@ TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
   // (about 1 s a frame with the rendering) 30 frames: the same checks over half the motion.
   constexpr int kFrames = test::frames_native_or_emulated(60, 30);
   const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", kFrames, {}, true);
-  ASSERT_EQ(o.estimate.size(), static_cast<std::size_t>(kFrames));
-  EXPECT_EQ(o.lost, 0);
+  ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(o, kFrames));
   EXPECT_LT(ate_rmse(o), 0.005);  // metres
   EXPECT_GT(o.surfels, 30000);
 }
@@ -102,10 +108,8 @@ TEST(SurfelSlam, ConstantVelocityGuessStartsCloserToTheAnswer) {
   ASSERT_TRUE(SurfelSlamOptions{}.constant_velocity_guess);
   const RunOutput cv = run_sequence(uri, kFrames, {});
   const RunOutput lp = run_sequence(uri, kFrames, last_pose);
-  ASSERT_EQ(cv.estimate.size(), static_cast<std::size_t>(kFrames));
-  ASSERT_EQ(lp.estimate.size(), static_cast<std::size_t>(kFrames));
-  EXPECT_EQ(cv.lost, 0);
-  EXPECT_EQ(lp.lost, 0);
+  ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(cv, kFrames));
+  ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(lp, kFrames));
   const double ate_cv = ate_rmse(cv), ate_lp = ate_rmse(lp);
   std::printf("constant velocity: ATE %.2f mm, %lld Gauss-Newton steps; last pose: ATE %.2f mm, %lld steps\n",
               ate_cv * 1e3, static_cast<long long>(cv.gauss_newton_steps), ate_lp * 1e3,
@@ -125,10 +129,8 @@ TEST(SurfelSlam, SpatialReorderingKeepsTrackingAndMap) {
   const std::string uri = "synthetic:office?noise=1&frames=1000&size=320x240";
   const RunOutput a = run_sequence(uri, kFrames, never);
   const RunOutput b = run_sequence(uri, kFrames, often);
-  ASSERT_EQ(a.estimate.size(), static_cast<std::size_t>(kFrames));
-  ASSERT_EQ(b.estimate.size(), static_cast<std::size_t>(kFrames));
-  EXPECT_EQ(a.lost, 0);
-  EXPECT_EQ(b.lost, 0);
+  ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(a, kFrames));
+  ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(b, kFrames));
   const double ate_a = ate_rmse(a), ate_b = ate_rmse(b);
   EXPECT_LT(ate_b, 0.01);
   EXPECT_NEAR(ate_b, ate_a, 0.002);  // metres

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -78,21 +79,20 @@ TEST(SynthTrajectory, RobotPathIsPlanarLevelAndClear) {
   }
 }
 
+// Median of v (the upper one of an even count; 0 when empty).
+float median_of(std::vector<float> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
 // Median of the measured (non-zero) depths of a frame, metres (0 when none), and their count.
 float median_valid_depth(const Frame& f, std::size_t* valid = nullptr) {
   std::vector<float> z;
   for (std::size_t p = 0; p < f.depth.size(); ++p)
     if (f.depth.data()[p] > 0) z.push_back(f.depth.data()[p]);
   if (valid != nullptr) *valid = z.size();
-  if (z.empty()) return 0;
-  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
-  return z[z.size() / 2];
-}
-
-float median_of(std::vector<float> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
+  return median_of(std::move(z));
 }
 
 TEST(SynthTrajectory, ViewsContainGeometryAtSensorRange) {
