@@ -31,7 +31,7 @@
 #include "core/frame.h"
 #include "io/frame_source.h"
 #include "kernels/crf_rows.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 #include "semantic/dense_crf.h"
 #include "semantic/label_store.h"
 #include "slam/surfel_pool.h"

@@ -16,7 +16,7 @@
 
 #include "bench_timing.h"
 #include "kernels/label_update_variants.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 #include "semantic/label_fusion.h"
 #include "semantic/label_store.h"
 #include "slam/index_map.h"

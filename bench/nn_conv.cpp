@@ -42,7 +42,7 @@
 #include "nn/conv_kernels.h"
 #include "nn/layers_ref.h"
 #include "nn/model_format.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 
 #if defined(EF_HAVE_XNNPACK)
 #include <xnnpack.h>

@@ -27,11 +27,11 @@
 #include <vector>
 
 #include "bench/bench_timing.h"
-#include "firmware_app/model_paths.h"
+#include "pipeline/model_paths.h"
 #include "kernels/variants.h"
 #include "nn/executor.h"
 #include "nn/model_format.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 #include "semantic/model_stats.h"
 
 namespace {
@@ -68,8 +68,8 @@ int main(int argc, char** argv) {
     else return usage();
   }
   const bool is_default = model_path.empty();
-  if (is_default) model_path = ef::app::default_model_path();
-  if (ef::Status s = ef::app::check_model_file(model_path, is_default); !s.ok()) {
+  if (is_default) model_path = ef::pipeline::default_model_path();
+  if (ef::Status s = ef::pipeline::check_model_file(model_path, is_default); !s.ok()) {
     std::fprintf(stderr, "bench_nn_model: %s\n", ef::to_string(s.error()).c_str());
     return 1;
   }

@@ -26,7 +26,7 @@
 
 #include "kernels/variants.h"
 #include "nn/eltwise_kernels.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 
 namespace {
 

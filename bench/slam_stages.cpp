@@ -32,7 +32,7 @@
 #include "kernels/reduce_normal_equations_variants.h"
 #include "kernels/splat_disc_variants.h"
 #include "kernels/track_rows_variants.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 #include "slam/surfel_slam.h"
 #include "sources/open_source.h"
 

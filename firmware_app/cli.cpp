@@ -5,7 +5,7 @@
 #include <string>
 
 #include "commands.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 #include "sources/open_source.h"
 
 namespace ef::app {

@@ -9,7 +9,7 @@
 #include "io/frame_resample.h"
 #include "io/klg_format.h"
 #include "io/tum_writer.h"
-#include "progress.h"
+#include "core/progress.h"
 #include "sources/open_source.h"
 
 namespace ef::app {

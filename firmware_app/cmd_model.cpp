@@ -15,7 +15,7 @@
 
 #include "args.h"
 #include "commands.h"
-#include "model_paths.h"
+#include "pipeline/model_paths.h"
 #include "nn/executor.h"
 #include "nn/model_format.h"
 #include "semantic/model_stats.h"
@@ -24,6 +24,11 @@
 extern char** environ;
 
 namespace ef::app {
+
+using pipeline::check_model_file;
+using pipeline::default_model_path;
+using pipeline::models_dir;
+using pipeline::models_dir_overridden;
 
 namespace {
 

@@ -1,14 +1,16 @@
 // `edgefusion plan`: the fixed memory a run of this configuration would allocate at start-up, part
-// by part (firmware_app/memory_plan.h), against the configured budget. Runs nothing.
+// by part (src/pipeline/memory_plan.h), against the configured budget. Runs nothing.
 #include <cstdio>
 #include <string>
 
 #include "args.h"
 #include "commands.h"
-#include "memory_plan.h"
-#include "run_config.h"
+#include "pipeline/memory_plan.h"
+#include "config_file.h"
 
 namespace ef::app {
+
+using namespace ef::pipeline;  // the run pipeline, its configuration and memory plan
 
 namespace {
 
@@ -24,7 +26,7 @@ std::string plan_help() {
       "`plan` in any command line.\n"
       "Exit status: 0 within the budget, 1 over it (a run would refuse to start), 2 a configuration error.\n\n"
       "The configuration file, with every key, its unit and its default:\n\n" +
-          RunConfig().describe(),
+          describe_config(RunConfig()),
       config_override_options());
 }
 

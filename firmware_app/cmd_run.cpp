@@ -9,16 +9,18 @@
 #include "args.h"
 #include "commands.h"
 #include "core/stage_stats.h"
-#include "memory_plan.h"
+#include "pipeline/memory_plan.h"
 #include "platform/devices/status_panel.h"
-#include "progress.h"
-#include "run_config.h"
-#include "run_pipeline.h"
+#include "core/progress.h"
+#include "config_file.h"
+#include "pipeline/run_pipeline.h"
 #include "stop_signal.h"
 #include "sources/open_source.h"
 #include "synth/synthetic_source.h"
 
 namespace ef::app {
+
+using namespace ef::pipeline;  // the run pipeline, its configuration and memory plan
 
 namespace {
 
@@ -151,11 +153,6 @@ int cmd_run(int argc, char** argv) {
   if (config.out_dir.empty())
     return report_error(kCmd, error(ErrorCode::kInvalidArgument, "missing --out DIR (or 'out:' in --config)"), 2);
 
-  // The memory plan before anything large exists (edgefusion plan prints it part by part).
-  auto plan = plan_memory(config);
-  if (!plan.ok()) return report_error(kCmd, plan.error(), 2);
-  if (Status s = check_memory_budget(*plan, config); !s.ok()) return report_error(kCmd, s.error(), 2);
-
   // The front panel, if configured: a missing chip is an error (exit 2) unless gpio.optional.
   auto gpio_or = open_gpio_lines(config.gpio);
   if (!gpio_or.ok()) return report_error(kCmd, gpio_or.error(), 2);
@@ -166,6 +163,10 @@ int cmd_run(int argc, char** argv) {
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
   FrameSource& source = **source_or;
   const SourceInfo& info = source.info();
+  // The memory plan before anything large exists (edgefusion plan prints it part by part).
+  auto plan = plan_memory(config, probe_of(source));
+  if (!plan.ok()) return report_error(kCmd, plan.error(), 2);
+  if (Status s = check_memory_budget(*plan, config); !s.ok()) return report_error(kCmd, s.error(), 2);
   if (!config.labels_final_out.empty() && info.live)
     return report_error(kCmd, error(ErrorCode::kInvalidArgument,
                                     "--labels-final-out reads the source a second time after the run; " +

@@ -15,15 +15,20 @@
 #include "core/stopwatch.h"
 #include "io/image_codec.h"
 #include "io/label_image.h"
-#include "model_paths.h"
+#include "pipeline/model_paths.h"
 #include "npy_writer.h"
-#include "platform/cpu_features.h"
-#include "progress.h"
+#include "platform/cpu/cpu_features.h"
+#include "core/progress.h"
 #include "semantic/model_stats.h"
 #include "semantic/segmenter.h"
 #include "sources/open_source.h"
 
 namespace ef::app {
+
+using pipeline::check_model_file;
+using pipeline::default_model_path;
+using pipeline::models_dir;
+using pipeline::models_dir_overridden;
 
 namespace {
 

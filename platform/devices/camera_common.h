@@ -24,6 +24,29 @@ Status query_size(const SourceUri& uri, const char* key, int& width, int& height
 // fx = fy = 525 at 640x480, scaled to width (the TUM RGB-D default too).
 Intrinsics intrinsics_from_fov(int width, int height, double hfov_rad, double vfov_rad);
 
+// What an `openni2:` URI asks for (platform/devices/cameras.h documents the keys), read without
+// touching a device: the one parser of its query, used by the camera's open() and by probe_camera().
+struct OpenNi2Request {
+  int width = 640, height = 480;  // the mode wanted; size_given false: 640x480 when the device has it
+  bool size_given = false;
+  int fps = 0;                     // 0 = 30 when the device has it, else the fastest
+  int timeout_ms = 2000;
+  bool registration = true;        // depth registered to colour where the device can
+  bool recording = false;          // the path names a .oni file (not a live device)
+};
+Result<OpenNi2Request> parse_openni2_request(const SourceUri& uri);
+
+// What a `v4l2:` URI asks for, likewise.
+struct V4l2Request {
+  int width = 640, height = 480;  // the size wanted (the driver may pick the nearest it has)
+  bool size_given = false;
+  int fps = 30;
+  int timeout_ms = 2000;
+  bool depth_camera = false;       // format=z16 (default rgb)
+  float depth_scale = 0.001f;      // metres per unit of z16 depth
+};
+Result<V4l2Request> parse_v4l2_request(const SourceUri& uri);
+
 // kNotFound "<name>: camera lost: <why>" (cameras.h: what the run loop stops on).
 Error camera_lost(const std::string& name, const std::string& why);
 

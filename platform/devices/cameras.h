@@ -68,6 +68,18 @@ class CameraSource : public FrameSource {
 Result<std::unique_ptr<CameraSource>> open_openni2_camera(const SourceUri& uri);
 Result<std::unique_ptr<CameraSource>> open_v4l2_camera(const SourceUri& uri);
 
+// What a camera URI will deliver, from the URI alone (no device is touched), for the memory plan:
+// the frame size (size=, else the 640x480 the camera is asked for by default) and whether it is a
+// live device (a .oni recording is not). Errors: those open_*_camera() gives for the same query
+// (unknown keys, bad values), and its kUnsupported "not built" in a build without the package.
+struct CameraProbe {
+  int width = 640, height = 480;
+  bool size_given = false;
+  bool live = true;
+};
+Result<CameraProbe> probe_openni2_camera(const SourceUri& uri);
+Result<CameraProbe> probe_v4l2_camera(const SourceUri& uri);
+
 // Whether this build has each back-end (CMake found libopenni2-dev / libv4l-dev).
 bool openni2_built();
 bool v4l2_built();

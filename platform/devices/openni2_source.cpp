@@ -129,17 +129,13 @@ class OpenNi2Camera final : public CameraSource, private openni::OpenNI::DeviceD
 };
 
 Status OpenNi2Camera::open(const SourceUri& uri) {
-  EF_RETURN_IF_ERROR(
-      check_query_keys(uri, {"size", "fps", "timeout_ms", "registration", "fx", "fy", "cx", "cy"}));
+  EF_ASSIGN_OR_RETURN(const camera::OpenNi2Request request, camera::parse_openni2_request(uri));
   name_ = camera::source_name(uri);
-  Size want{640, 480};
-  bool size_given = false;
-  EF_RETURN_IF_ERROR(camera::query_size(uri, "size", want.width, want.height, size_given));
-  int64_t fps = 0, timeout_ms = 2000, registration = 1;
-  EF_RETURN_IF_ERROR(camera::query_int(uri, "fps", 1, 1000, fps));
-  EF_RETURN_IF_ERROR(camera::query_int(uri, "timeout_ms", 1, 600000, timeout_ms));
-  EF_RETURN_IF_ERROR(camera::query_int(uri, "registration", 0, 1, registration));
-  timeout_ms_ = int(timeout_ms);
+  const Size want{request.width, request.height};
+  const bool size_given = request.size_given;
+  const int64_t fps = request.fps;
+  const int64_t registration = request.registration ? 1 : 0;
+  timeout_ms_ = request.timeout_ms;
 
   EF_RETURN_IF_ERROR(initialize_openni(name_));
   const char* device_arg = uri.path.empty() ? openni::ANY_DEVICE : uri.path.c_str();

@@ -88,28 +88,13 @@ class V4l2Camera final : public CameraSource {
 };
 
 Status V4l2Camera::open(const SourceUri& uri) {
-  EF_RETURN_IF_ERROR(check_query_keys(uri, {"format", "size", "fps", "timeout_ms", "depth_scale", "fx", "fy", "cx", "cy"}));
+  EF_ASSIGN_OR_RETURN(const camera::V4l2Request request, camera::parse_v4l2_request(uri));
   name_ = camera::source_name(uri);
-  if (uri.path.empty()) return error(ErrorCode::kInvalidArgument, "v4l2: no device given (expected v4l2:/dev/videoN)");
-  int width = 640, height = 480;
-  bool size_given = false;
-  EF_RETURN_IF_ERROR(camera::query_size(uri, "size", width, height, size_given));
-  int64_t fps = 30, timeout_ms = 2000;
-  EF_RETURN_IF_ERROR(camera::query_int(uri, "fps", 1, 1000, fps));
-  EF_RETURN_IF_ERROR(camera::query_int(uri, "timeout_ms", 1, 600000, timeout_ms));
-  timeout_ms_ = int(timeout_ms);
-  if (auto it = uri.query.find("format"); it != uri.query.end()) {
-    if (it->second != "rgb" && it->second != "z16")
-      return error(ErrorCode::kInvalidArgument, name_ + ": option format=" + it->second + " is not rgb or z16");
-    depth_camera_ = it->second == "z16";
-  }
-  if (auto it = uri.query.find("depth_scale"); it != uri.query.end()) {
-    double s = 0;
-    if (!text::parse_double(it->second, s) || !(s > 0))
-      return error(ErrorCode::kInvalidArgument, name_ + ": option depth_scale=" + it->second +
-                                                    " is not a positive number of metres per unit");
-    depth_scale_ = float(s);
-  }
+  int width = request.width, height = request.height;
+  const int64_t fps = request.fps;
+  timeout_ms_ = request.timeout_ms;
+  depth_camera_ = request.depth_camera;
+  depth_scale_ = request.depth_scale;
 
   struct stat st {};
   if (::stat(uri.path.c_str(), &st) != 0) {

@@ -25,7 +25,7 @@
 
 #include <cstddef>
 
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 
 namespace ef::kernels {
 

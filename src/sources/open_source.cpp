@@ -23,6 +23,33 @@ Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri_text) {
                                                 "' (expected one of: " + source_uri_help() + ")");
 }
 
+SourceProbe probe_of(const FrameSource& source) {
+  const SourceInfo& info = source.info();
+  SourceProbe p;
+  p.width = info.intrinsics.width;
+  p.height = info.intrinsics.height;
+  p.live = info.live;
+  p.frame_count = info.frame_count;
+  return p;
+}
+
+Result<SourceProbe> probe_source(const std::string& uri_text) {
+  EF_ASSIGN_OR_RETURN(SourceUri uri, parse_source_uri(uri_text));
+  if (uri.scheme == "openni2" || uri.scheme == "v4l2") {
+    EF_ASSIGN_OR_RETURN(const CameraProbe c, uri.scheme == "openni2" ? probe_openni2_camera(uri) : probe_v4l2_camera(uri));
+    if (c.live) {
+      SourceProbe p;
+      p.width = c.width;
+      p.height = c.height;
+      p.size_assumed = !c.size_given;
+      p.live = true;
+      return p;
+    }
+  }
+  EF_ASSIGN_OR_RETURN(std::unique_ptr<FrameSource> source, open_source(uri_text));
+  return probe_of(*source);
+}
+
 bool is_camera_lost(const SourceInfo& source, const Error& err) {
   return source.live && err.code == ErrorCode::kNotFound;
 }

@@ -1,6 +1,7 @@
 // Opens any frame source from its URI: the one place that knows every scheme.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -18,6 +19,23 @@ namespace ef {
 // Unknown schemes and unknown query keys are errors that name them. A camera scheme in a build
 // configured without its package is a kUnsupported error saying "not built: missing package ...".
 Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri);
+
+// What a source will deliver, known before the run starts: for `edgefusion plan`, and the memory
+// plan of `run`.
+struct SourceProbe {
+  int width = 0, height = 0;  // frame size, pixels
+  bool size_assumed = false;  // a camera without size=: the 640x480 it is asked for by default
+  bool live = false;          // a live camera (capture thread and ring), not a recording
+  int64_t frame_count = -1;   // frames of a recording; -1 when unknown (live)
+};
+
+// The probe of `uri`. A recording (synthetic, tum, 7scenes, klg, a .oni file) is opened and closed
+// again, so that its real frame size is known and every error open_source() would give for it is
+// given here; a live camera is not touched: its URI is checked as opening it would, and its size is
+// the one asked for (CameraProbe). Errors: open_source()'s.
+Result<SourceProbe> probe_source(const std::string& uri);
+// The probe of a source already open.
+SourceProbe probe_of(const FrameSource& source);
 
 // Whether an error from `source`'s next() means its camera is gone (unplugged, powered off,
 // disconnected, or silent for the source's timeout_ms): a live source's kNotFound. The run loop then

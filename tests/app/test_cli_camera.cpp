@@ -9,7 +9,7 @@
 
 #include "app/cli_test_util.h"
 #include "io/trajectory_io.h"
-#include "platform/camera_test_util.h"
+#include "devices/camera_test_util.h"
 #include "test_support.h"
 
 namespace ef::app {

@@ -15,8 +15,8 @@
 #include "app/cli_test_util.h"
 #include "core/frame.h"
 #include "firmware_app/cli.h"
-#include "firmware_app/final_labels.h"
-#include "firmware_app/mapping_stage.h"
+#include "pipeline/final_labels.h"
+#include "pipeline/mapping_stage.h"
 #include "io/image_codec.h"
 #include "io/ply_writer.h"
 #include "semantic/segmenter.h"
@@ -25,6 +25,8 @@
 #include "test_support.h"
 
 namespace ef::app {
+
+using namespace ef::pipeline;
 namespace {
 
 namespace fs = std::filesystem;

@@ -1,6 +1,6 @@
-// The YAML configuration (firmware_app/run_config.h): sections and flat keys, errors that name the
+// The YAML configuration (src/pipeline/run_config.h): sections and flat keys, errors that name the
 // file, line, key and value, describe() as a file that reads back to the same configuration; the
-// memory plan (firmware_app/memory_plan.h) against what the classes really allocate and against the
+// memory plan (src/pipeline/memory_plan.h) against what the classes really allocate and against the
 // budget; `edgefusion plan`; the ARM64 example configuration of firmware_app/config/.
 #include <gtest/gtest.h>
 
@@ -12,14 +12,14 @@
 #include "app/cli_test_util.h"
 #include "core/intrinsics.h"
 #include "firmware_app/args.h"
-#include "firmware_app/final_labels.h"
-#include "firmware_app/memory_plan.h"
-#include "firmware_app/model_paths.h"
-#include "firmware_app/run_config.h"
-#include "firmware_app/run_pipeline.h"
+#include "pipeline/final_labels.h"
+#include "pipeline/memory_plan.h"
+#include "pipeline/model_paths.h"
+#include "firmware_app/config_file.h"
+#include "pipeline/run_pipeline.h"
 #include "sources/open_source.h"
 #include "core/stage_stats.h"
-#include "firmware_app/run_semantics.h"
+#include "pipeline/run_semantics.h"
 #include "semantic/dense_crf.h"
 #include "semantic/segmenter.h"
 #include "slam/surfel_fusion.h"
@@ -27,6 +27,8 @@
 #include "test_support.h"
 
 namespace ef::app {
+
+using namespace ef::pipeline;
 namespace {
 
 namespace fs = std::filesystem;
@@ -255,7 +257,7 @@ TEST(ConfigYaml, EveryErrorNamesFileLineKeyAndValue) {
 }
 
 TEST(ConfigYaml, DescribeDocumentsEveryKeyWithItsDefault) {
-  const std::string text = RunConfig().describe();
+  const std::string text = describe_config(RunConfig());
   for (const std::string& key : config_keys()) {
     const auto dot = key.find('.');
     const std::string name = dot == std::string::npos ? key : key.substr(dot + 1);
@@ -276,8 +278,8 @@ TEST(ConfigYaml, DescribeDocumentsEveryKeyWithItsDefault) {
 
 TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   const RunConfig defaults;
-  auto back = read_text(defaults.describe());
-  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << defaults.describe();
+  auto back = read_text(describe_config(defaults));
+  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << describe_config(defaults);
   expect_same(*back, defaults);
 
   RunConfig c;  // every field away from its default; strings YAML would misread unquoted
@@ -324,8 +326,8 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.gpio.button.active_low = false;
   c.gpio.debounce_ms = 45;
   c.gpio.optional = true;
-  back = read_text(c.describe());
-  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << c.describe();
+  back = read_text(describe_config(c));
+  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << describe_config(c);
   expect_same(*back, c);
 }
 
@@ -468,7 +470,7 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   EXPECT_NEAR(double(plan->bytes_of("dense crf")), double(crf->bytes()), 0.01 * double(crf->bytes()))
       << plan->table();
 
-  // The final label pass (firmware_app/final_labels.h) over this run's map, after the run.
+  // The final label pass (src/pipeline/final_labels.h) over this run's map, after the run.
   RunConfig with_final = c;
   with_final.labels_final_out = (fs::path(with_out.out_dir) / "final").string();
   auto final_plan = plan_memory(with_final);

@@ -16,7 +16,7 @@
 #include <sched.h>
 #endif
 
-#include "core/alloc_counter.h"
+#include "support/alloc_counter.h"
 #include "core/thread_pool.h"
 
 namespace ef {

@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/alloc_counter.h"
+#include "support/alloc_counter.h"
 #include "core/arena.h"
 #include "core/frame.h"
 #include "core/frame_ring.h"

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "kernels/variants.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 
 namespace ef::test {
 

@@ -12,7 +12,7 @@
 #include "kernels/depth_u16_to_metres_variants.h"
 #include "kernels/dot_i8_variants.h"
 #include "kernels/variants.h"
-#include "platform/cpu_features.h"
+#include "platform/cpu/cpu_features.h"
 
 namespace ef::kernels {
 namespace {

@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "core/alloc_counter.h"
+#include "support/alloc_counter.h"
 #include "slam/spatial_order.h"
 #include "slam/surfel_pool.h"
 

@@ -16,7 +16,7 @@
 #include <memory>
 #include <vector>
 
-#include "core/alloc_counter.h"
+#include "support/alloc_counter.h"
 #include "io/frame_source.h"
 #include "slam/preprocess.h"
 #include "slam/preprocess_test_util.h"

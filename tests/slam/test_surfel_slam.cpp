@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "core/alloc_counter.h"
+#include "support/alloc_counter.h"
 #include "core/frame.h"
 #include "eval/trajectory_eval.h"
 #include "io/frame_resample.h"

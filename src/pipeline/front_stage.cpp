@@ -1,0 +1,120 @@
+#include "pipeline/front_stage.h"
+
+#include <thread>
+
+#include "core/stopwatch.h"
+#include "io/frame_resample.h"
+
+namespace ef::pipeline {
+
+namespace {
+// How long one step() waits for a live camera's next frame before it returns kNothingYet, so that
+// the caller can look at its stop requests (signals, the button) between frames.
+constexpr std::chrono::milliseconds kCaptureWait(200);
+}  // namespace
+
+Result<std::unique_ptr<FrontStage>> FrontStage::create(const RunConfig& config, FrameSource& source,
+                                                       const slam::SurfelSlam& slam, RunSemantics* semantics) {
+  std::unique_ptr<FrontStage> f(new FrontStage(config, source, slam, semantics));
+  const SourceInfo& info = source.info();
+  if (info.live) {
+    f->capture_ = std::make_unique<CaptureThread>(source, config.capture_slots);
+  } else {
+    f->input_.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
+  }
+  return f;
+}
+
+FrontStage::~FrontStage() {
+  if (capture_ != nullptr) capture_->stop();
+}
+
+Status FrontStage::allocate(PreparedFrame& slot) const {
+  const SourceInfo& info = source_.info();
+  slot.working.allocate(config_.width, config_.height, info.has_labels);
+  auto pre = slam_.make_preprocessor();
+  if (!pre.ok()) return pre.take_error();
+  slot.pre.emplace(std::move(*pre));
+  if (semantics_ != nullptr) semantics_->allocate(slot.cnn);
+  return Status::success();
+}
+
+void FrontStage::start_capture() {
+  if (capture_ != nullptr) capture_->start(config_.capture_cpu);
+}
+
+FrontStage::Step FrontStage::end(PreparedFrame& slot, std::optional<Error> error) {
+  slot.end = true;
+  slot.error = std::move(error);
+  slot.number = delivered_;
+  ended_ = true;
+  if (capture_ != nullptr) capture_->stop();  // joins: the camera is released as soon as possible
+  return Step::kEnd;
+}
+
+void FrontStage::pace(double timestamp) {
+  // Recorded speed: frame k is released no earlier than (t_k - t_0) after the first one.
+  if (delivered_ == 0) {
+    replay_wall_start_ = std::chrono::steady_clock::now();
+    replay_t0_ = timestamp;
+    return;
+  }
+  std::this_thread::sleep_until(replay_wall_start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                         std::chrono::duration<double>(timestamp - replay_t0_)));
+}
+
+FrontStage::Step FrontStage::step(PreparedFrame& slot) {
+  slot.end = false;
+  slot.error.reset();
+  slot.cnn.valid = false;
+  if (ended_) return end(slot, std::nullopt);
+  if (config_.max_frames >= 0 && delivered_ >= config_.max_frames) return end(slot, std::nullopt);
+
+  const SteadyClock::time_point t_source = SteadyClock::now();
+  const Frame* captured = nullptr;
+  CapturedFrame* captured_slot = nullptr;
+  if (capture_ != nullptr) {
+    // The capture thread went on after a stop request until its end marker: every frame it had
+    // captured comes out first.
+    captured_slot = capture_->acquire(kCaptureWait);
+    if (captured_slot == nullptr) return Step::kNothingYet;
+    if (captured_slot->end) {
+      std::optional<Error> e = captured_slot->error;
+      capture_->release();
+      return end(slot, std::move(e));
+    }
+    captured = &captured_slot->frame;
+  } else {
+    if (stop_.load(std::memory_order_relaxed)) return end(slot, std::nullopt);
+    auto got = source_.next(input_);
+    if (!got.ok()) return end(slot, got.error());
+    if (!*got) return end(slot, std::nullopt);
+    captured = &input_;
+    if (config_.realtime) pace(input_.timestamp);
+  }
+  slot.source_ms = ms_since(t_source);
+
+  SteadyClock::time_point t0 = SteadyClock::now();
+  resample_frame(*captured, slot.working);
+  slot.resample_ms = ms_since(t0);
+  if (captured_slot != nullptr) capture_->release();  // the camera's slot is free again
+
+  slot.number = delivered_;
+  t0 = SteadyClock::now();
+  const Status s = slot.pre->process(slot.working);
+  slot.preprocess_ms = ms_since(t0);
+  if (!s.ok()) return end(slot, s.error());
+  ++delivered_;
+  return Step::kFrame;
+}
+
+void FrontStage::segment(PreparedFrame& slot) {
+  slot.cnn.valid = false;
+  if (slot.end || semantics_ == nullptr || !semantics_->cnn_due(slot.number)) return;
+  if (Status s = semantics_->segment(slot.working, slot.cnn); !s.ok()) {
+    slot.end = true;
+    slot.error = s.error();
+  }
+}
+
+}  // namespace ef::pipeline

@@ -1,0 +1,111 @@
+// The front stage of `edgefusion run` (pipeline/run_pipeline.h): everything a frame needs
+// before it meets the map, none of which depends on the map or the pose:
+//
+//   next frame    a live camera's frame from its capture thread (pipeline/capture_thread.h,
+//                 drop-oldest), or a recording's next frame (paced by its timestamps with
+//                 --realtime); stops after max_frames
+//   resample      to the working resolution (io/frame_resample.h)
+//   preprocess    depth filter and pyramids (slam/preprocess.h), with the slot's own Preprocessor
+//   segment       segment(): the CNN on the frames RunSemantics::cnn_due() names
+//                 (pipeline/run_semantics.h), on the front thread or a thread of its own
+//
+// The result is a PreparedFrame slot; the mapping stage takes it from there. Because nothing here
+// reads the map, these steps can run ahead of mapping on other threads, and the outputs are the
+// same as when every step takes its turn on one thread.
+//
+// Memory: allocate() sizes a slot once (working frame, pyramids, CNN result); step() and segment()
+// allocate nothing. Threads: step() on one thread at a time, segment() on one thread at a time (the
+// same or another); request_stop() and the counters from any thread.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "pipeline/capture_thread.h"
+#include "core/frame.h"
+#include "core/result.h"
+#include "io/frame_source.h"
+#include "pipeline/run_config.h"
+#include "pipeline/run_semantics.h"
+#include "slam/preprocess.h"
+#include "slam/surfel_slam.h"
+
+namespace ef::pipeline {
+
+// One frame on its way from the front stage to the mapping stage.
+struct PreparedFrame {
+  int64_t number = -1;                    // 0-based count of the frames the front stage delivered
+  Frame working;                          // the frame at the working resolution
+  std::optional<slam::Preprocessor> pre;  // its pyramids: SurfelSlam::process(working, *pre, ...)
+  CnnResult cnn;                          // the CNN's result, on the frames it ran on (cnn.valid)
+  double source_ms = 0;                   // getting the frame (decoding, or waiting for the camera)
+  double resample_ms = 0;                 // milliseconds each
+  double preprocess_ms = 0;
+  bool end = false;                       // no frame: the stream ended, the stage was stopped or
+  std::optional<Error> error;             // max_frames reached (error empty), or the source failed
+};
+
+class FrontStage {
+ public:
+  // source, slam, semantics: borrowed, must outlive the stage; semantics may be null (no labels).
+  // slam only provides make_preprocessor(). A live source gets its capture thread here (started by
+  // start_capture()).
+  static Result<std::unique_ptr<FrontStage>> create(const RunConfig& config, FrameSource& source,
+                                                    const slam::SurfelSlam& slam, RunSemantics* semantics);
+  ~FrontStage();
+  FrontStage(const FrontStage&) = delete;
+  FrontStage& operator=(const FrontStage&) = delete;
+
+  // Sizes one slot (start-up; allocates). Errors: the preprocessor's.
+  Status allocate(PreparedFrame& slot) const;
+
+  // Live sources: starts reading the camera on the capture thread (pinned to config.capture_cpu
+  // when >= 0). Does nothing for recordings.
+  void start_capture();
+
+  enum class Step {
+    kFrame,       // `slot` holds the next frame, prepared
+    kNothingYet,  // a live camera delivered nothing within 200 ms: call again (after checking stops)
+    kEnd,         // `slot` is the end marker (slot.end; slot.error when the source failed)
+  };
+  Step step(PreparedFrame& slot);
+  // The CNN on `slot` when its frame is due (nothing for an end marker or without labels). A failure
+  // turns the slot into an end marker carrying the error, so that mapping stops there.
+  void segment(PreparedFrame& slot);
+
+  // Asks the stage to end: a live camera's capture thread stops, and the frames it had already
+  // captured still come out before the end marker; a recording ends at the next step(). Any thread.
+  void request_stop() {
+    stop_.store(true, std::memory_order_relaxed);
+    if (capture_ != nullptr) capture_->request_stop();
+  }
+
+  // Live cameras: frames dropped because the capture ring was full, and frames the camera reported
+  // corrupt (skipped). 0 for recordings.
+  uint64_t dropped_overload() const { return capture_ != nullptr ? capture_->dropped() : 0; }
+  uint64_t corrupt_dropped() const { return capture_ != nullptr ? capture_->corrupt_dropped() : 0; }
+
+ private:
+  FrontStage(const RunConfig& config, FrameSource& source, const slam::SurfelSlam& slam, RunSemantics* semantics)
+      : config_(config), source_(source), slam_(slam), semantics_(semantics) {}
+  Step end(PreparedFrame& slot, std::optional<Error> error);
+  void pace(double timestamp);
+
+  const RunConfig config_;
+  FrameSource& source_;
+  const slam::SurfelSlam& slam_;
+  RunSemantics* semantics_;
+  std::unique_ptr<CaptureThread> capture_;  // live sources only
+  Frame input_;                             // a recording's frame at its own size
+  std::atomic<bool> stop_{false};
+  int64_t delivered_ = 0;
+  bool ended_ = false;
+  // --realtime: wall time and timestamp (seconds) of the first frame.
+  std::chrono::steady_clock::time_point replay_wall_start_;
+  double replay_t0_ = 0;
+};
+
+}  // namespace ef::pipeline

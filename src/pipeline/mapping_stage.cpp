@@ -1,0 +1,75 @@
+#include "pipeline/mapping_stage.h"
+
+#include <cstdio>
+
+#include "core/stopwatch.h"
+
+namespace ef::pipeline {
+
+slam::SurfelSlamOptions slam_options(const RunConfig& config) {
+  slam::SurfelSlamOptions o;
+  o.pool.capacity = config.surfel_capacity;
+  o.tracker.icp_weight = config.icp_weight;
+  o.tracker.rgb_weight = config.rgb_weight;
+  o.tracker.rgb_boost_condition = config.rgb_boost_condition;
+  o.tracker.rgb_boost_max = config.rgb_boost_max;
+  o.constant_velocity_guess = config.constant_velocity_guess;
+  o.preprocess.depth_cutoff_m = config.depth_cutoff_m;
+  o.prediction.index_map_scale = config.index_map_scale;
+  o.associate_at_tracked_pose = config.associate_at_tracked_pose;
+  o.own_preprocessor = false;  // the front step preprocesses, into each slot's own Preprocessor
+  return o;
+}
+
+Result<std::unique_ptr<MappingStage>> MappingStage::create(const RunConfig& config, const Intrinsics& working,
+                                                           StageStats& stats, RunSemantics* semantics,
+                                                           const std::string& trajectory_path) {
+  auto slam = slam::SurfelSlam::create(working, slam_options(config));
+  if (!slam.ok()) return slam.take_error();
+  std::unique_ptr<MappingStage> m(new MappingStage(std::move(*slam), stats, semantics));
+  EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path));
+  // Front stage (per frame, measured on its thread): getting, resampling and preprocessing the frame.
+  m->st_ = StageIds{stats.add_stage("source"), stats.add_stage("resample"), stats.add_stage("preprocess"),
+                    stats.add_stage("front_total"),
+                    // Mapping stage: the SLAM's steps, their sum, and the whole stage with labels and output.
+                    stats.add_stage("track"), stats.add_stage("fuse"), stats.add_stage("predict"),
+                    stats.add_stage("slam_total"), stats.add_stage("mapping_total")};
+  m->c_ = CounterIds{stats.add_counter("frames"), stats.add_counter("frames_with_pose"),
+                     stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
+                     stats.add_counter("fused_frames")};
+  return m;
+}
+
+Status MappingStage::step(const PreparedFrame& slot) {
+  const SteadyClock::time_point t_start = SteadyClock::now();
+  stats_.record_ms(st_.source, slot.source_ms);
+  stats_.record_ms(st_.resample, slot.resample_ms);
+  stats_.record_ms(st_.preprocess, slot.preprocess_ms);
+  stats_.record_ms(st_.front, slot.source_ms + slot.resample_ms + slot.preprocess_ms +
+                                  (slot.cnn.valid ? slot.cnn.segment_ms : 0.0));
+
+  const Frame& frame = slot.working;
+  EF_RETURN_IF_ERROR(slam_.process(frame, *slot.pre, &result_));
+  if (frames_ > 0) stats_.record_ms(st_.track, result_.timings.track_ms);  // frame 0 has nothing to track
+  if (result_.fused) stats_.record_ms(st_.fuse, result_.timings.fuse_ms);
+  if (result_.fused) stats_.record_ms(st_.predict, result_.timings.predict_ms);
+  stats_.record_ms(st_.slam, result_.timings.total_ms);
+  if (semantics_ != nullptr) EF_RETURN_IF_ERROR(semantics_->on_frame(slot.number, frame, slot.cnn, result_, slam_));
+
+  if (result_.lost) {
+    std::snprintf(line_, sizeof line_, "lost %.6f %s", frame.timestamp,
+                  slam::track_lost_reason_name(result_.track.reason));
+    EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
+  }
+  EF_RETURN_IF_ERROR(trajectory_.write(frame.timestamp, result_.T_world_cam));
+  stats_.increment(c_.frames);
+  stats_.increment(c_.with_pose, frame.has_pose ? 1 : 0);
+  stats_.increment(c_.with_labels, frame.has_labels ? 1 : 0);
+  stats_.increment(c_.lost, result_.lost ? 1 : 0);
+  stats_.increment(c_.fused, result_.fused ? 1 : 0);
+  ++frames_;
+  stats_.record_ms(st_.mapping, ms_since(t_start));
+  return Status::success();
+}
+
+}  // namespace ef::pipeline

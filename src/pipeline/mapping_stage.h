@@ -1,0 +1,72 @@
+// The mapping stage of `edgefusion run` (pipeline/run_pipeline.h): everything that reads or
+// writes the map, in frame order, on one thread:
+//
+//   track + fuse + predict   SurfelSlam::process with the pyramids the front stage made
+//   labels                   the frame's CNN result fused at the frame's pose, the CRF when due,
+//                            the label image when due (RunSemantics::on_frame)
+//   trajectory               the frame's pose line (and '# lost ...' before it when lost)
+//
+// and it records the times of the front and segment steps too into StageStats (they travel in the
+// slot, so StageStats is only ever written by this thread).
+//
+// Memory: create() allocates the SLAM (pool, pyramids, index map) and registers the stages;
+// step() allocates nothing. Threads: one thread at a time.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "core/intrinsics.h"
+#include "core/result.h"
+#include "core/stage_stats.h"
+#include "pipeline/front_stage.h"
+#include "io/trajectory_io.h"
+#include "pipeline/run_config.h"
+#include "pipeline/run_semantics.h"
+#include "slam/surfel_slam.h"
+
+namespace ef::pipeline {
+
+// The SurfelSlam options of a run.
+slam::SurfelSlamOptions slam_options(const RunConfig& config);
+
+class MappingStage {
+ public:
+  // working: intrinsics at the working resolution. semantics: borrowed, may be null. The trajectory
+  // is written to `trajectory_path` (created now). Errors: the SLAM's options, the file's.
+  static Result<std::unique_ptr<MappingStage>> create(const RunConfig& config, const Intrinsics& working,
+                                                      StageStats& stats, RunSemantics* semantics,
+                                                      const std::string& trajectory_path);
+
+  // Maps one prepared frame (not an end marker). Errors: the SLAM's, the labels', a failed write of
+  // the trajectory; the map keeps every frame mapped before.
+  Status step(const PreparedFrame& slot);
+
+  slam::SurfelSlam& slam() { return slam_; }
+  const slam::SurfelSlam& slam() const { return slam_; }
+  const slam::SlamFrameResult& last_result() const { return result_; }
+  int64_t frames() const { return frames_; }  // frames mapped (tracked or lost)
+  // Closes the trajectory file (reports a failed final write).
+  Status close_trajectory() { return trajectory_.close(); }
+
+ private:
+  MappingStage(slam::SurfelSlam slam, StageStats& stats, RunSemantics* semantics)
+      : slam_(std::move(slam)), stats_(stats), semantics_(semantics) {}
+
+  slam::SurfelSlam slam_;
+  StageStats& stats_;
+  RunSemantics* semantics_;
+  TumTrajectoryWriter trajectory_;
+  slam::SlamFrameResult result_;
+  int64_t frames_ = 0;
+  char line_[128] = {};  // the '# lost' comment, formatted without the heap
+  struct StageIds {
+    int source, resample, preprocess, front, track, fuse, predict, slam, mapping;
+  } st_{};
+  struct CounterIds {
+    int frames, with_pose, with_labels, lost, fused;
+  } c_{};
+};
+
+}  // namespace ef::pipeline

@@ -1,0 +1,58 @@
+// The fixed memory of `edgefusion run`, computed from the configuration before anything large is
+// allocated: frames, SLAM buffers, the surfel pool (label store included), the segmenter (model,
+// activation arena, packed weights, buffers), label fusion, the dense CRF and the class columns of
+// map.ply. `edgefusion plan` prints it; `run` refuses to start when the total exceeds
+// RunConfig::memory_budget_mb (check_memory_budget).
+//
+// How: each part's bytes follow the formula its class documents (docs/architecture.md, "Memory
+// budget", and the headers named in MemoryPart::detail), with the same default options `run` uses.
+// The only file read is the segmentation model (small: 88 kB shipped), to know its input / output
+// sizes, its arena (nn::plan_memory, which allocates nothing large) and the packed weight bytes of
+// the convolution variants this CPU would pick. The source is not opened: its frame size comes from
+// its URI's `size=WxH`, else the 640x480 of every supported camera and dataset is assumed.
+//
+// Not counted: what the frame source holds inside (decoders, a synthetic room, driver buffers),
+// stacks, the C++ / libc heap overhead, and code.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/result.h"
+#include "pipeline/run_config.h"
+#include "sources/open_source.h"
+
+namespace ef::pipeline {
+
+struct MemoryPart {
+  std::string name;    // "surfel pool"
+  std::size_t bytes;   // allocated at start-up
+  std::string detail;  // the formula with its numbers, e.g. "1000000 surfels x 60 bytes"
+};
+
+struct MemoryPlan {
+  std::vector<MemoryPart> parts;  // in start-up order
+  std::size_t total_bytes = 0;    // sum of the parts
+  std::size_t budget_bytes = 0;   // RunConfig::memory_budget_mb x 10^6
+  bool within_budget() const { return total_bytes <= budget_bytes; }
+  // The bytes of the part named `name`; 0 when there is none.
+  std::size_t bytes_of(const std::string& name) const;
+  // A table: part, bytes, MB, detail; then the total and the budget.
+  std::string table() const;
+};
+
+// The plan of `config` for a source of `probe` (sources/open_source.h). Errors: the model file's
+// (missing: kNotFound naming it; invalid: the loader's) when labels are on.
+Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe);
+// The same for config.source, probed (probe_source: a recording is opened and closed; its errors).
+Result<MemoryPlan> plan_memory(const RunConfig& config);
+
+// Ok when plan_memory(config) succeeds and fits the budget. Otherwise kResourceExhausted with the
+// total, the budget and the largest parts, and what to change (or plan_memory's error).
+Status check_memory_budget(const RunConfig& config);
+// The same for a plan already made from `config`.
+Status check_memory_budget(const MemoryPlan& plan, const RunConfig& config);
+
+}  // namespace ef::pipeline

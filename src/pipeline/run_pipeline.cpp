@@ -1,0 +1,248 @@
+#include "pipeline/run_pipeline.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include <sys/resource.h>
+
+#include "io/ply_writer.h"
+#include "io/stats_json.h"
+#include "platform/cpu/thread_affinity.h"
+#include "sources/open_source.h"
+
+namespace ef::pipeline {
+
+namespace {
+
+// How long the mapping thread waits for a prepared frame before it looks at the stop requests
+// again, and how long the front thread waits for a free slot before it looks at its own.
+constexpr std::chrono::milliseconds kPoll(200);
+
+// The steps every prepared slot passes through, in order (StageRing stages).
+constexpr int kFront = 0, kSegment = 1, kMapping = 2, kStages = 3;
+
+// The process's peak resident memory so far, bytes (Linux reports kilobytes).
+double peak_rss_bytes() {
+  struct rusage u {};
+  if (getrusage(RUSAGE_SELF, &u) != 0) return 0;
+  return static_cast<double>(u.ru_maxrss) * 1024.0;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config, FrameSource& source,
+                                                         StageStats& stats) {
+  for (const auto& [key, cpu] : {std::pair<const char*, int>{"pipeline.front_cpu", config.front_cpu},
+                                 {"pipeline.cnn_cpu", config.cnn_cpu},
+                                 {"pipeline.mapping_cpu", config.mapping_cpu},
+                                 {"pipeline.capture_cpu", config.capture_cpu}}) {
+    if (cpu < 0) continue;  // not pinned
+    if (const std::string why = cpu_core_missing(cpu); !why.empty())
+      return error(ErrorCode::kInvalidArgument, std::string(key) + " " + std::to_string(cpu) + ": " + why);
+  }
+  std::unique_ptr<RunPipeline> p(new RunPipeline(config, source, stats));
+  std::error_code ec;
+  std::filesystem::create_directories(config.out_dir, ec);
+  if (ec)
+    return error(ErrorCode::kIoError, "cannot create output folder '" + config.out_dir + "': " + ec.message());
+
+  const SourceInfo& info = source.info();
+  const Intrinsics working = info.intrinsics.scaled_to(config.width, config.height);
+  if (config.labels) {
+    auto sem = RunSemantics::create(config, working, stats);
+    if (!sem.ok()) return sem.take_error();
+    p->semantics_ = std::move(*sem);
+  }
+  const std::string trajectory_path = (std::filesystem::path(config.out_dir) / "trajectory.txt").string();
+  auto mapping = MappingStage::create(config, working, stats, p->semantics_.get(), trajectory_path);
+  if (!mapping.ok()) return mapping.take_error();
+  p->mapping_ = std::move(*mapping);
+  auto front = FrontStage::create(config, source, p->mapping_->slam(), p->semantics_.get());
+  if (!front.ok()) return front.take_error();
+  p->front_ = std::move(*front);
+
+  // The slots, each sized once; one when a single thread takes every step in turn.
+  Status slot_status;
+  const auto init = [&](PreparedFrame& slot) {
+    if (Status s = p->front_->allocate(slot); !s.ok() && slot_status.ok()) slot_status = s;
+    p->slot_bytes_ = slot.working.bytes() + (slot.pre ? slot.pre->bytes() : 0) + slot.cnn.bytes();
+  };
+  p->ring_ = std::make_unique<StageRing<PreparedFrame>>(config.threads == 1 ? 1 : config.prepared_slots, kStages, init);
+  if (!slot_status.ok()) return slot_status.error();
+
+  p->c_ = CounterIds{stats.add_counter("camera_lost"),     stats.add_counter("corrupt_frames_dropped"),
+                     stats.add_counter("frames_dropped_overload"), stats.add_counter("surfels_created"),
+                     stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
+                     stats.add_counter("surfels_refused")};
+  return p;
+}
+
+RunPipeline::~RunPipeline() = default;
+
+bool RunPipeline::consume(PreparedFrame& slot, RunObserver& observer, RunOutcome& outcome) {
+  if (slot.end) {
+    if (slot.error) {
+      if (is_camera_lost(source_.info(), *slot.error)) {
+        // A camera that vanished ends capture like a stop: what was mapped so far is written.
+        outcome.camera_lost = true;
+        stats_.increment(c_.camera_lost);
+        std::fprintf(stderr, "\n%s; capture stopped, writing the outputs of %lld frames\n",
+                     slot.error->message.c_str(), static_cast<long long>(mapping_->frames()));
+      } else {
+        outcome.error = *slot.error;  // the outputs so far are still written
+      }
+    }
+    return false;
+  }
+  if (Status s = mapping_->step(slot); !s.ok()) {
+    outcome.error = s.error();
+    return false;
+  }
+  observer.frame_mapped(*this);
+  return true;
+}
+
+void RunPipeline::check_stop(RunObserver& observer, RunOutcome& outcome) {
+  if (stop_sent_ || !observer.stop_requested(*this)) return;
+  outcome.stopped = true;
+  stop_sent_ = true;
+  front_->request_stop();  // drains: every frame captured or prepared is still mapped
+}
+
+void RunPipeline::front_loop(bool with_segment) {
+  StageRing<PreparedFrame>& ring = *ring_;
+  while (true) {
+    PreparedFrame* slot = ring.acquire(kFront, kPoll);
+    if (slot == nullptr) {
+      if (ring.closed()) return;  // mapping gave up
+      continue;
+    }
+    // kNothingYet: the same slot again (a live camera had nothing within the poll time).
+    if (front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
+    ring.release(kFront);
+    if (with_segment) {
+      if (ring.acquire(kSegment, kPoll) != slot) return;  // closed (it is next in line otherwise)
+      front_->segment(*slot);
+      ring.release(kSegment);
+    }
+    if (slot->end) return;
+  }
+}
+
+void RunPipeline::segment_loop() {
+  StageRing<PreparedFrame>& ring = *ring_;
+  while (true) {
+    PreparedFrame* slot = ring.acquire(kSegment, kPoll);
+    if (slot == nullptr) {
+      if (ring.closed()) return;
+      continue;
+    }
+    front_->segment(*slot);
+    const bool end = slot->end;
+    ring.release(kSegment);
+    if (end) return;
+  }
+}
+
+RunOutcome RunPipeline::run(RunObserver& observer) {
+  RunOutcome outcome;
+  const auto start = std::chrono::steady_clock::now();
+  pin_current_thread_or_warn(config_.mapping_cpu, "mapping");
+  front_->start_capture();
+  StageRing<PreparedFrame>& ring = *ring_;
+  std::thread front_thread, segment_thread;
+  if (config_.threads >= 2) {
+    front_thread = std::thread([this] {
+      pin_current_thread_or_warn(config_.front_cpu, "front stage");
+      front_loop(/*with_segment=*/config_.threads == 2);
+    });
+  }
+  if (config_.threads == 3) {
+    segment_thread = std::thread([this] {
+      pin_current_thread_or_warn(config_.cnn_cpu, "CNN");
+      segment_loop();
+    });
+  }
+  while (true) {
+    check_stop(observer, outcome);
+    if (config_.threads == 1) {
+      // Every step in turn on this thread, on the ring's one slot.
+      PreparedFrame* slot = ring.acquire(kFront, kPoll);
+      if (slot == nullptr || front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
+      ring.release(kFront);
+      ring.acquire(kSegment, kPoll);  // `slot` again: the one slot, just released by the front step
+      front_->segment(*slot);
+      ring.release(kSegment);
+    }
+    PreparedFrame* slot = ring.acquire(kMapping, kPoll);
+    if (slot == nullptr) continue;  // the front step always ends with an end slot
+    const bool more = consume(*slot, observer, outcome);
+    ring.release(kMapping);
+    if (!more) break;
+  }
+  // Ended (the end slot, or an error): the camera stops, and threads still waiting or working on
+  // later slots give up.
+  front_->request_stop();
+  ring.close();
+  if (front_thread.joinable()) front_thread.join();
+  if (segment_thread.joinable()) segment_thread.join();
+  outcome.frames = mapping_->frames();
+  outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats_.set_counter(c_.dropped_overload, front_->dropped_overload());
+  stats_.set_counter(c_.corrupt_dropped, front_->corrupt_dropped());
+  const slam::SurfelPoolCounters& pc = mapping_->slam().pool().counters();
+  stats_.set_counter(c_.surfels_created, pc.created);
+  stats_.set_counter(c_.surfels_removed, pc.removed);
+  stats_.set_counter(c_.surfels_evicted, pc.evicted);
+  stats_.set_counter(c_.surfels_refused, pc.refused);
+  return outcome;
+}
+
+OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
+  OutputFiles out;
+  const std::filesystem::path dir(config_.out_dir);
+  out.trajectory = (dir / "trajectory.txt").string();
+  out.map = (dir / "map.ply").string();
+  out.stats = (dir / "stats.json").string();
+  slam::SurfelSlam& slam = mapping_->slam();
+
+  if (Status s = mapping_->close_trajectory(); !s.ok()) out.errors.push_back(s.error());
+  else out.wrote_trajectory = true;
+  if (semantics_ != nullptr) {
+    if (Status s = semantics_->finish(slam); !s.ok()) out.errors.push_back(s.error());
+  }
+  if (config_.write_map) {
+    const std::string comment =
+        "edgefusion map of " + config_.source + ", " + std::to_string(outcome.frames) + " frames";
+    SurfelCloudView cloud = slam::surfel_cloud_view(slam.pool());
+    if (semantics_ != nullptr) semantics_->add_label_columns(slam.pool(), cloud);
+    if (Status s = write_surfel_ply(out.map, cloud, comment); !s.ok()) out.errors.push_back(s.error());
+    else out.wrote_map = true;
+  }
+  const std::vector<StatsExtraField> extra = {
+      {"width", static_cast<double>(config_.width)},
+      {"height", static_cast<double>(config_.height)},
+      {"threads", static_cast<double>(config_.threads)},
+      {"surfels", static_cast<double>(slam.pool().size())},
+      {"surfel_capacity", static_cast<double>(slam.pool().capacity())},
+      {"surfel_pool_bytes", static_cast<double>(slam.pool_bytes())},
+      {"bytes_per_surfel", static_cast<double>(slam::SurfelPool::kBytesPerSurfel)},
+      {"peak_rss_bytes", peak_rss_bytes()}};
+  if (Status s = write_stats_json(out.stats, stats_, static_cast<uint64_t>(outcome.frames), outcome.seconds, extra);
+      !s.ok())
+    out.errors.push_back(s.error());
+  else
+    out.wrote_stats = true;
+  return out;
+}
+
+Result<FinalLabelCounts> RunPipeline::render_final_labels(FrameSource& replay) {
+  if (semantics_ == nullptr)
+    return error(ErrorCode::kInvalidArgument, "--labels-final-out needs labels: drop --no-labels");
+  const std::string trajectory = (std::filesystem::path(config_.out_dir) / "trajectory.txt").string();
+  return pipeline::render_final_labels(config_, replay, trajectory, mapping_->slam(), *semantics_);
+}
+
+}  // namespace ef::pipeline

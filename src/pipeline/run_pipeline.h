@@ -1,0 +1,131 @@
+// The pipeline of `edgefusion run`: from a frame source to trajectory.txt, map.ply and stats.json.
+//
+//   capture thread   live cameras only: source -> capture ring (config.capture_slots, drop-oldest,
+//                    counted as frames_dropped_overload); a camera is never held up by mapping
+//   front            next frame -> resample -> preprocess (pipeline/front_stage.h)
+//   segment          the CNN every label_every-th frame, into the frame's slot
+//   mapping          track + fuse + predict, labels fused at the frame's pose, CRF, label images,
+//                    trajectory line (pipeline/mapping_stage.h); then the observer (LED,
+//                    progress line) and its stop requests (signals, the button)
+//   outputs          write_outputs(): trajectory closed, final CRF, map.ply, stats.json
+//
+// The three steps share a StageRing (core/stage_ring.h) of config.prepared_slots PreparedFrame
+// slots, which every frame passes through in order; a step waits for its predecessor, nothing is
+// dropped after capture. config.threads says how the steps map onto threads:
+//   1  front, segment and mapping take turns on the calling thread (one slot; deterministic)
+//   2  front + segment on one thread, mapping on the calling thread (the default)
+//   3  front, segment and mapping each on a thread (a board with cores to spare: the CNN's time
+//      then overlaps both)
+// The outputs are identical in every mode, because neither front nor segment reads anything mapping
+// writes: segmentation needs no pose, so the CNN runs before its frame is tracked and its result is
+// fused with that frame's pose once mapping has it. Each thread is pinned to its configured core.
+//
+// Ending: the source's end, max_frames, a source or CNN error, a mapping error, or the observer's
+// stop request. A stop request drains the pipeline: the capture thread stops taking frames and every
+// frame already captured or prepared is still mapped; then the outputs are written. A camera that
+// disappears (is_camera_lost) ends the run like a stop, not as an error.
+//
+// Memory: create() allocates everything (SLAM, semantics, slots, rings); run() allocates nothing per
+// frame (tests/core/test_pipeline.cpp counts it over 3000 frames).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/stage_ring.h"
+#include "core/result.h"
+#include "core/stage_stats.h"
+#include "pipeline/final_labels.h"
+#include "pipeline/front_stage.h"
+#include "io/frame_source.h"
+#include "pipeline/mapping_stage.h"
+#include "pipeline/run_config.h"
+#include "pipeline/run_semantics.h"
+
+namespace ef::pipeline {
+
+class RunPipeline;
+
+// What the run asks and tells its owner between frames, on the mapping thread.
+class RunObserver {
+ public:
+  virtual ~RunObserver() = default;
+  // Checked before each frame: true ends the run (once true, the pipeline drains and ends).
+  virtual bool stop_requested(const RunPipeline& /*pipeline*/) { return false; }
+  // After each mapped frame.
+  virtual void frame_mapped(const RunPipeline& /*pipeline*/) {}
+};
+
+struct RunOutcome {
+  int64_t frames = 0;          // frames mapped
+  double seconds = 0;          // wall time of run()
+  bool stopped = false;        // the observer asked to stop
+  bool camera_lost = false;    // the live camera disappeared (not an error: the outputs are complete)
+  std::optional<Error> error;  // what ended the run early (the source's or mapping's error)
+};
+
+struct OutputFiles {
+  std::string trajectory, map, stats;  // paths in the output folder
+  bool wrote_trajectory = false, wrote_map = false, wrote_stats = false;
+  std::vector<Error> errors;  // each output that failed, in order
+};
+
+class RunPipeline {
+ public:
+  // source: borrowed, must outlive the pipeline. Creates config.out_dir and the trajectory file,
+  // the SLAM, the semantics (config.labels), the slots and the rings; registers every stage and
+  // counter in `stats` (borrowed). Errors: the folder's, the model's, the options'.
+  static Result<std::unique_ptr<RunPipeline>> create(const RunConfig& config, FrameSource& source, StageStats& stats);
+  ~RunPipeline();
+  RunPipeline(const RunPipeline&) = delete;
+  RunPipeline& operator=(const RunPipeline&) = delete;
+
+  // Runs until the source ends, max_frames, an error or a stop request (see the header).
+  RunOutcome run(RunObserver& observer);
+
+  // After run(): the final CRF (if asked for), then trajectory.txt closed, map.ply and stats.json.
+  // Every output is attempted even when another failed.
+  OutputFiles write_outputs(const RunOutcome& outcome);
+  // After write_outputs(): the final map's labels in every labels_out_every-th frame of `replay`, the
+  // same recording opened again, into config.labels_final_out (pipeline/final_labels.h).
+  // Errors: a run without labels, and the pass's (they name the file or the frame).
+  Result<FinalLabelCounts> render_final_labels(FrameSource& replay);
+
+  const slam::SurfelSlam& slam() const { return mapping_->slam(); }
+  const MappingStage& mapping() const { return *mapping_; }
+  const RunSemantics* semantics() const { return semantics_.get(); }
+  // Frames dropped so far: a live camera's overload (ring full) plus the frames it reported corrupt.
+  uint64_t frames_dropped() const { return front_->dropped_overload() + front_->corrupt_dropped(); }
+  // Bytes of one prepared slot (working frame, pyramids, CNN result), for the memory line.
+  std::size_t slot_bytes() const { return slot_bytes_; }
+
+ private:
+  RunPipeline(const RunConfig& config, FrameSource& source, StageStats& stats)
+      : config_(config), source_(source), stats_(stats) {}
+  // Maps one slot; an end slot sets the outcome instead. Returns false when the run is over.
+  bool consume(PreparedFrame& slot, RunObserver& observer, RunOutcome& outcome);
+  // The observer's stop request, passed on to the front stage once.
+  void check_stop(RunObserver& observer, RunOutcome& outcome);
+  // The loop of a thread that runs the front step (and the segment step when `with_segment`).
+  void front_loop(bool with_segment);
+  void segment_loop();
+
+  const RunConfig config_;
+  FrameSource& source_;
+  StageStats& stats_;
+  std::unique_ptr<RunSemantics> semantics_;
+  std::unique_ptr<MappingStage> mapping_;
+  std::unique_ptr<FrontStage> front_;
+  std::unique_ptr<StageRing<PreparedFrame>> ring_;  // front -> segment -> mapping
+  std::size_t slot_bytes_ = 0;
+  bool stop_sent_ = false;
+  struct CounterIds {
+    int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,
+        surfels_refused;
+  } c_{};
+};
+
+}  // namespace ef::pipeline

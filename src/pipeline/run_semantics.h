@@ -1,0 +1,110 @@
+// The semantic half of `edgefusion run` (SemanticFusion, McCormac et al. ICRA 2017), in two parts
+// that run on different threads of the pipeline (pipeline/run_pipeline.h):
+//   segment step, segment()      every label_every-th frame (and every frame whose label image is
+//                                due) the CNN segments the working frame (semantic/segmenter.h) into
+//                                a CnnResult that travels with the frame; segmentation needs no pose,
+//                                so it runs before the frame is tracked
+//   mapping step, on_frame()     after the surfel SLAM tracked the frame: its CNN probabilities
+//                                multiply into every surfel the new index map shows at the frame's
+//                                pose (semantic/label_fusion.h); lost frames are not fused;
+//                                every crf_every-th frame the dense CRF over the map (semantic/dense_crf.h);
+//                                every labels_out_every-th frame the map's labels rendered into the
+//                                frame's view, with the CNN's own prediction where no labelled surfel
+//                                is seen (semantic/label_render.h), written as DIR/<frame name>.png
+//   at the end, finish()         the CRF once more if crf_final; map.ply's class columns.
+// Memory: create() allocates everything (segmenter, fusion buffers, CRF lattice, the rendered image,
+// the class columns of map.ply); allocate() sizes each CnnResult slot once; segment() and on_frame()
+// allocate only inside libpng when a label image is written.
+// Threads: segment() uses only the segmenter and may run on one thread while on_frame() runs on
+// another; each of them on one thread at a time.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/frame.h"
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/result.h"
+#include "core/stage_stats.h"
+#include "io/ply_writer.h"
+#include "pipeline/run_config.h"
+#include "semantic/dense_crf.h"
+#include "semantic/label_fusion.h"
+#include "semantic/segmenter.h"
+#include "slam/surfel_slam.h"
+
+namespace ef::pipeline {
+
+// The dense CRF's options for a run of `config` (capacity = the pool's, the lattice sized for a
+// SurfelSlam map): shared by RunSemantics and the memory plan (memory_plan.h).
+semantic::DenseCrfOptions run_crf_options(const RunConfig& config);
+
+// DIR/<frame name>.png, the label image of `frame` (its index, 6 digits, where it has no name): the
+// names `edgefusion convert --to tum:` gives its labels, so `edgefusion eval labels` pairs them.
+std::string label_image_path(const std::string& dir, const Frame& frame);
+
+// The CNN's result for one frame, carried with the frame from the segment step to the mapping step.
+struct CnnResult {
+  bool valid = false;                // the CNN ran on this frame
+  std::vector<float> probabilities;  // output height x width x classes (semantic::ProbabilityView)
+  int width = 0, height = 0, classes = 0;
+  Image<uint8_t> labels;             // its class ids at the working size (the rendering's fallback)
+  double segment_ms = 0;             // time the CNN took, milliseconds
+  semantic::ProbabilityView view() const { return {probabilities.data(), height, width, classes}; }
+  // Bytes of the probabilities and the class ids (what allocate() sized).
+  std::size_t bytes() const { return probabilities.size() * sizeof(float) + labels.size(); }
+};
+
+class RunSemantics {
+ public:
+  // Loads the model (config.model or the shipped one), sizes every buffer for `working` and a pool
+  // of config.surfel_capacity surfels, registers its stages and counters in `stats`, and creates
+  // config.labels_out. Errors name the model file or the folder.
+  static Result<std::unique_ptr<RunSemantics>> create(const RunConfig& config, const Intrinsics& working,
+                                                      StageStats& stats);
+
+  // Segment step: whether the CNN runs on frame `frame_number` (0-based count of frames delivered):
+  // a label update or a label image is due.
+  bool cnn_due(int64_t frame_number) const;
+  // Sizes `out` for this model and working size (start-up; allocates).
+  void allocate(CnnResult& out) const;
+  // Segment step: segments `working` (the working size) into `out` (sized by allocate()).
+  Status segment(const Frame& working, CnnResult& out);
+
+  // Mapping stage, after slam.process() of frame `frame_number`; `cnn` is that frame's result
+  // (valid on the frames cnn_due() named).
+  Status on_frame(int64_t frame_number, const Frame& working, const CnnResult& cnn,
+                  const slam::SlamFrameResult& result, slam::SurfelSlam& slam);
+  // At the end of the run, before the map is written: the final CRF if asked for.
+  Status finish(slam::SurfelSlam& slam);
+  // Fills `view`'s class_id and class_prob columns from the pool's label store.
+  void add_label_columns(const slam::SurfelPool& pool, SurfelCloudView& view);
+
+  // "model edgefusion-seg.efm (160x120 -> 14 classes), labels every 10 frames, CRF off" for the log.
+  std::string describe() const;
+
+ private:
+  RunSemantics() = default;
+  Status write_rendering(const Frame& working, const CnnResult& cnn, const slam::SlamFrameResult& result,
+                         slam::SurfelSlam& slam);
+  Status run_crf(slam::SurfelSlam& slam);
+
+  RunConfig config_;
+  std::string model_path_;
+  std::unique_ptr<semantic::Segmenter> segmenter_;
+  std::unique_ptr<semantic::LabelFusion> fusion_;
+  std::unique_ptr<semantic::DenseCrf> crf_;  // null when neither crf_every nor crf_final
+  Image<uint8_t> rendered_;                  // the map's labels at the working size
+  std::vector<uint8_t> class_id_;            // map.ply columns, one per pool slot
+  std::vector<float> class_prob_;
+  StageStats* stats_ = nullptr;
+  int st_segment_ = -1, st_fuse_ = -1, st_render_ = -1, st_crf_ = -1;
+  int c_cnn_frames_ = -1, c_surfel_updates_ = -1, c_hidden_ = -1, c_no_depth_ = -1, c_label_images_ = -1;
+  int c_crf_runs_ = -1, c_crf_left_out_ = -1;
+  int64_t last_crf_frame_ = -1;
+};
+
+}  // namespace ef::pipeline

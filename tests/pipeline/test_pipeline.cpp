@@ -1,0 +1,254 @@
+// The pipeline of `edgefusion run` (src/pipeline/run_pipeline.h), driven in-process:
+//   - one, two and three threads give byte-identical trajectory and map (front and CNN read
+//     nothing mapping writes);
+//   - 3000 steady-state frames through every step on three threads allocate nothing;
+//   - a stop request drains: every frame the front stage prepared is mapped, outputs complete;
+//   - a live camera that vanishes mid-run leaves complete outputs and exit status "camera lost".
+// In test_core so that it runs under ThreadSanitizer in CI.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "support/alloc_counter.h"
+#include "core/stage_stats.h"
+#include "pipeline/run_pipeline.h"
+#include "io/frame_source.h"
+#include "semantic/semantic_test_util.h"
+#include "sources/open_source.h"
+#include "test_support.h"
+
+namespace ef {
+namespace {
+
+// A source that replays a few frames of the synthetic office back and forth (0..n-1, n-2..1, ...),
+// so that tracking stays continuous over thousands of frames at no rendering cost. Optionally
+// live (paced, as a camera) and ending with an error after `limit` frames (a camera unplugged).
+// It counts the heap allocations of its own next() (none are expected; copy_frame reuses buffers).
+class LoopSource : public FrameSource {
+ public:
+  LoopSource(int distinct_frames, int64_t limit, bool live = false, std::optional<Error> final_error = std::nullopt,
+             std::chrono::microseconds period = std::chrono::microseconds(0))
+      : limit_(limit), final_error_(std::move(final_error)), period_(period) {
+    auto synth = open_source("synthetic:?frames=" + std::to_string(distinct_frames) + "&size=160x120");
+    EXPECT_TRUE(synth.ok());
+    info_ = (*synth)->info();
+    info_.uri = "loop:";
+    info_.frame_count = live ? -1 : limit;
+    info_.live = live;
+    frames_.resize(static_cast<std::size_t>(distinct_frames));
+    for (Frame& f : frames_) {
+      f.allocate(info_.intrinsics.width, info_.intrinsics.height, info_.has_labels);
+      EXPECT_TRUE(*(*synth)->next(f));
+    }
+  }
+  const SourceInfo& info() const override { return info_; }
+  Result<bool> next(Frame& out) override {
+    const test::AllocationCounter count;
+    if (next_ == limit_) {
+      if (final_error_) return *final_error_;
+      return false;
+    }
+    if (period_.count() > 0) {
+      if (next_ == 0) start_ = std::chrono::steady_clock::now();
+      std::this_thread::sleep_until(start_ + period_ * next_);
+    }
+    const int n = static_cast<int>(frames_.size());
+    const int64_t phase = next_ % (2 * n - 2);
+    copy_frame(frames_[static_cast<std::size_t>(phase < n ? phase : 2 * n - 2 - phase)], out);
+    out.index = next_;
+    out.timestamp = 1.0 + static_cast<double>(next_) / 30.0;
+    ++next_;
+    own_allocations_.fetch_add(count.thread_allocations(), std::memory_order_relaxed);
+    return true;
+  }
+  uint64_t own_allocations() const { return own_allocations_.load(); }
+  int64_t produced() const { return next_; }
+
+ private:
+  SourceInfo info_;
+  std::vector<Frame> frames_;
+  int64_t limit_;
+  std::optional<Error> final_error_;
+  std::chrono::microseconds period_;
+  std::chrono::steady_clock::time_point start_;
+  int64_t next_ = 0;
+  std::atomic<uint64_t> own_allocations_{0};
+};
+
+pipeline::RunConfig small_run(const std::filesystem::path& dir, const std::string& model, int threads) {
+  pipeline::RunConfig c;
+  c.width = 160;
+  c.height = 120;
+  c.surfel_capacity = 60'000;
+  c.model = model;
+  c.label_every = 5;
+  c.threads = threads;
+  c.progress = false;
+  c.out_dir = dir.string();
+  return c;
+}
+
+std::string read_file(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string tiny_model(const std::filesystem::path& dir) {
+  const auto model = dir / "tiny.efm";
+  EXPECT_EQ(test::write_model_file(test::tiny_seg_net(24, 32), model), "");
+  return model.string();
+}
+
+// Stops the run after `stop_after` mapped frames (never when < 0).
+class StopAfter : public pipeline::RunObserver {
+ public:
+  explicit StopAfter(int64_t stop_after) : stop_after_(stop_after) {}
+  bool stop_requested(const pipeline::RunPipeline& p) override {
+    return stop_after_ >= 0 && p.mapping().frames() >= stop_after_;
+  }
+
+ private:
+  int64_t stop_after_;
+};
+
+TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
+  const auto dir = test::scratch_dir("pipeline-threads");
+  const std::string model = tiny_model(dir);
+  std::string trajectory[3], map[3];
+  for (int threads = 1; threads <= 3; ++threads) {
+    LoopSource source(12, 40);
+    StageStats stats;
+    const auto out = dir / ("t" + std::to_string(threads));
+    auto p = pipeline::RunPipeline::create(small_run(out, model, threads), source, stats);
+    ASSERT_TRUE(p.ok()) << to_string(p.error());
+    pipeline::RunObserver none;
+    const pipeline::RunOutcome outcome = (*p)->run(none);
+    EXPECT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
+    EXPECT_EQ(outcome.frames, 40);
+    const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
+    EXPECT_TRUE(files.errors.empty());
+    EXPECT_EQ(stats.counter(stats.counter_id("cnn_frames")), 8u);  // frames 0, 5, ..., 35
+    trajectory[threads - 1] = read_file(files.trajectory);
+    map[threads - 1] = read_file(files.map);
+  }
+  EXPECT_GT(trajectory[0].size(), 40u * 20);
+  EXPECT_GT(map[0].size(), 10'000u);
+  for (int t = 1; t < 3; ++t) {
+    EXPECT_EQ(trajectory[0], trajectory[t]) << t + 1 << " threads";
+    EXPECT_TRUE(map[0] == map[t]) << "map.ply differs between one and " << t + 1 << " threads";
+  }
+}
+
+// Issue 7: "over 3000 steady-state frames: zero heap allocations". Every step, three threads, the
+// CNN every 5th frame; the global counter sees the front and CNN threads too.
+TEST(Pipeline, ThreeThousandFramesOnThreeThreadsAllocateNothing) {
+  ASSERT_TRUE(test::allocation_counting_enabled());
+#if defined(__SANITIZE_THREAD__)
+  constexpr bool kUnderTsan = true;
+#else
+  constexpr bool kUnderTsan = false;
+#endif
+  constexpr int64_t kFrames = test::kUnderEmulator || kUnderTsan ? 300 : 3000;  // qemu and TSan: 20-60x slower
+  constexpr int64_t kWarmUp = 10;  // first frames: dispatch choices, the map's first growth
+  // The source goes on past the counted frames: when the front and CNN threads end, OpenCV's
+  // thread-local storage allocates in its destructor (once per thread, not per frame).
+  constexpr int64_t kTail = 10;
+  const auto dir = test::scratch_dir("pipeline-zero-alloc");
+  LoopSource source(16, kWarmUp + kFrames + kTail);
+  StageStats stats;
+  auto p = pipeline::RunPipeline::create(small_run(dir, tiny_model(dir), 3), source, stats);
+  ASSERT_TRUE(p.ok()) << to_string(p.error());
+
+  // Counts from the end of the warm-up to the last mapped frame, on every thread.
+  class Counting : public pipeline::RunObserver {
+   public:
+    void frame_mapped(const pipeline::RunPipeline& p) override {
+      if (p.mapping().frames() == kWarmUp) count.restart();
+      if (p.mapping().frames() == kWarmUp + kFrames) allocations = count.global_allocations();
+    }
+    test::AllocationCounter count;
+    uint64_t allocations = ~0ull;
+  } counting;
+  const uint64_t source_before = source.own_allocations();
+  const pipeline::RunOutcome outcome = (*p)->run(counting);
+  ASSERT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
+  ASSERT_EQ(outcome.frames, kWarmUp + kFrames + kTail);
+  EXPECT_EQ(source.own_allocations() - source_before, 0u);
+  EXPECT_EQ(counting.allocations, 0u) << "heap allocations over " << kFrames << " steady-state frames";
+  EXPECT_EQ((*p)->slam().lost_frames(), 0);
+  EXPECT_GT((*p)->slam().pool().size(), 5000);
+}
+
+TEST(Pipeline, StopRequestDrainsEveryPreparedFrameAndWritesOutputs) {
+  const auto dir = test::scratch_dir("pipeline-stop");
+  LoopSource source(12, 1000);
+  StageStats stats;
+  auto p = pipeline::RunPipeline::create(small_run(dir, tiny_model(dir), 2), source, stats);
+  ASSERT_TRUE(p.ok()) << to_string(p.error());
+  StopAfter stop(8);
+  const pipeline::RunOutcome outcome = (*p)->run(stop);
+  EXPECT_TRUE(outcome.stopped);
+  EXPECT_FALSE(outcome.error.has_value());
+  // Every frame the source gave was prepared and mapped: none left in the ring.
+  EXPECT_GE(outcome.frames, 8);
+  EXPECT_LT(outcome.frames, 1000);
+  EXPECT_EQ(outcome.frames, source.produced());
+  const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
+  EXPECT_TRUE(files.wrote_trajectory && files.wrote_map && files.wrote_stats);
+  std::ifstream t(files.trajectory);
+  int64_t poses = 0;
+  for (std::string line; std::getline(t, line);)
+    if (!line.empty() && line[0] != '#') ++poses;
+  EXPECT_EQ(poses, outcome.frames);
+}
+
+TEST(Pipeline, VanishingCameraLeavesCompleteOutputs) {
+  const auto dir = test::scratch_dir("pipeline-camera-lost");
+  for (int threads : {1, 3}) {
+    const auto out = dir / ("t" + std::to_string(threads));
+    // A live camera at 200 Hz that is unplugged after 25 frames (kNotFound: is_camera_lost).
+    LoopSource camera(12, 25, /*live=*/true, error(ErrorCode::kNotFound, "loop: camera lost (unplugged)"),
+                      std::chrono::milliseconds(5));
+    StageStats stats;
+    pipeline::RunConfig c = small_run(out, tiny_model(dir), threads);
+    c.capture_slots = 64;  // room for every frame: the count below is exact
+    auto p = pipeline::RunPipeline::create(c, camera, stats);
+    ASSERT_TRUE(p.ok()) << to_string(p.error());
+    pipeline::RunObserver none;
+    const pipeline::RunOutcome outcome = (*p)->run(none);
+    EXPECT_TRUE(outcome.camera_lost) << threads;
+    EXPECT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
+    EXPECT_EQ(outcome.frames, 25) << "every frame captured before the camera vanished is mapped";
+    EXPECT_EQ(stats.counter(stats.counter_id("camera_lost")), 1u);
+    const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
+    EXPECT_TRUE(files.errors.empty());
+    const std::string ply = read_file(files.map);
+    EXPECT_EQ(ply.rfind("ply\n", 0), 0u);
+    EXPECT_NE(ply.find("element vertex " + std::to_string((*p)->slam().pool().size())), std::string::npos);
+    EXPECT_GT((*p)->slam().pool().size(), 1000);
+    EXPECT_NE(read_file(files.stats).find("\"camera_lost\":1"), std::string::npos);
+  }
+}
+
+TEST(Pipeline, BadCoreIsAnErrorNamingTheKey) {
+  const auto dir = test::scratch_dir("pipeline-bad-core");
+  LoopSource source(4, 4);
+  StageStats stats;
+  pipeline::RunConfig c = small_run(dir, tiny_model(dir), 2);
+  c.labels = false;
+  c.mapping_cpu = 1023;
+  auto p = pipeline::RunPipeline::create(c, source, stats);
+  ASSERT_FALSE(p.ok());
+  EXPECT_NE(p.error().message.find("pipeline.mapping_cpu 1023"), std::string::npos) << p.error().message;
+}
+
+}  // namespace
+}  // namespace ef

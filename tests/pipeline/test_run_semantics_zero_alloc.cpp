@@ -1,0 +1,68 @@
+// The semantic half of a run (segment, fuse through the index map, render) must not touch the heap
+// per frame once created, like the SLAM it follows: `edgefusion run`'s per-frame path after
+// SurfelSlam::process (src/pipeline/run_semantics.h), with the CNN on every frame.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <memory>
+
+#include "support/alloc_counter.h"
+#include "core/stage_stats.h"
+#include "pipeline/run_config.h"
+#include "pipeline/run_semantics.h"
+#include "io/frame_source.h"
+#include "semantic/label_render.h"
+#include "semantic/semantic_test_util.h"
+#include "slam/surfel_slam.h"
+#include "sources/open_source.h"
+#include "test_support.h"
+
+namespace ef {
+namespace {
+
+TEST(RunSemanticsZeroAlloc, SegmentFuseAndRenderAllocateNothingPerFrame) {
+  ASSERT_TRUE(test::allocation_counting_enabled());
+  const auto dir = test::scratch_dir("run-semantics-zero-alloc");
+  const auto model = dir / "tiny.efm";
+  ASSERT_EQ(test::write_model_file(test::tiny_seg_net(24, 32), model), "");
+
+  auto source = open_source("synthetic:?frames=10&size=160x120");
+  ASSERT_TRUE(source.ok());
+  const Intrinsics K = (*source)->info().intrinsics;
+  pipeline::RunConfig config;
+  config.width = K.width;
+  config.height = K.height;
+  config.surfel_capacity = 100'000;
+  config.model = model.string();
+  config.label_every = 1;  // the CNN and the update on every frame
+  StageStats stats;
+  auto sem = pipeline::RunSemantics::create(config, K, stats);
+  ASSERT_TRUE(sem.ok()) << to_string(sem.error());
+  slam::SurfelSlamOptions so;
+  so.pool.capacity = config.surfel_capacity;
+  auto slam = slam::SurfelSlam::create(K, so);
+  ASSERT_TRUE(slam.ok());
+
+  Frame frame;
+  frame.allocate(K.width, K.height, true);
+  slam::SlamFrameResult result;
+  Image<uint8_t> rendered(K.width, K.height);
+  pipeline::CnnResult cnn;
+  (*sem)->allocate(cnn);
+  uint64_t allocations = 0;
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_TRUE(*(*source)->next(frame));
+    test::AllocationCounter count;  // the source's rendering is not part of the path
+    ASSERT_TRUE(slam->process(frame, &result).ok());
+    ASSERT_TRUE((*sem)->segment(frame, cnn).ok());
+    ASSERT_TRUE((*sem)->on_frame(i, frame, cnn, result, *slam).ok());
+    // The rendering --labels-out writes (the PNG encoder itself is outside the per-frame path).
+    ASSERT_TRUE(semantic::render_labels(slam->predictor(), slam->pool(), {}, rendered.view(), frame.depth.view()).ok());
+    if (i >= 3) allocations += count.thread_allocations();  // frames 0-2: warm-up (dispatch choices)
+  }
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_GT(slam->pool().size(), 1000);
+}
+
+}  // namespace
+}  // namespace ef
