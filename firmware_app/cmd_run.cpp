@@ -144,14 +144,8 @@ int cmd_run(int argc, char** argv) {
   auto config_or = config_from_args(*args);
   if (!config_or.ok()) return report_error(kCmd, config_or.error(), 2);
   RunConfig config = std::move(*config_or);
-  if (!config.labels &&
-      (!config.labels_out.empty() || !config.labels_final_out.empty() || config.crf_every > 0 || config.crf_final))
-    return report_error(kCmd, error(ErrorCode::kInvalidArgument,
-                                    "--labels-out, --labels-final-out and the CRF need labels: drop --no-labels (or "
-                                    "'labels: false')"),
-                        2);
-  if (config.out_dir.empty())
-    return report_error(kCmd, error(ErrorCode::kInvalidArgument, "missing --out DIR (or 'out:' in --config)"), 2);
+  // What can be known wrong without the source (`plan` checks the same: check_and_plan).
+  if (Status s = config.validate(); !s.ok()) return report_error(kCmd, s.error(), 2);
 
   // The front panel, if configured: a missing chip is an error (exit 2) unless gpio.optional.
   auto gpio_or = open_gpio_lines(config.gpio);
@@ -159,19 +153,15 @@ int cmd_run(int argc, char** argv) {
   GpioLines gpio = std::move(*gpio_or);
   if (!gpio.warnings.empty()) std::fprintf(stderr, "%s: warning: %s\n", kCmd, gpio.warnings.c_str());
 
-  auto source_or = open_source(config.source);
+  auto source_or = open_source(config.run.source);
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
   FrameSource& source = **source_or;
   const SourceInfo& info = source.info();
-  // The memory plan before anything large exists (edgefusion plan prints it part by part).
-  auto plan = plan_memory(config, probe_of(source));
+  // The source against the configuration, the model and the memory plan, before anything large
+  // exists (edgefusion plan prints the plan part by part).
+  auto plan = check_and_plan(config, probe_of(source));
   if (!plan.ok()) return report_error(kCmd, plan.error(), 2);
   if (Status s = check_memory_budget(*plan, config); !s.ok()) return report_error(kCmd, s.error(), 2);
-  if (!config.labels_final_out.empty() && info.live)
-    return report_error(kCmd, error(ErrorCode::kInvalidArgument,
-                                    "--labels-final-out reads the source a second time after the run; " +
-                                        config.source + " is a live camera (record it first, e.g. to .klg)"),
-                        2);
 
   // Everything sized once, before the first frame.
   StageStats stats;
@@ -182,30 +172,32 @@ int cmd_run(int argc, char** argv) {
   }
   RunPipeline& pipeline = **pipeline_or;
   int64_t expected = info.frame_count;
-  if (config.max_frames > 0 && (expected < 0 || config.max_frames < expected)) expected = config.max_frames;
-  PanelObserver panel(kCmd, gpio, config.gpio, stats, expected, config.progress);
+  if (config.run.frames > 0 && (expected < 0 || config.run.frames < expected)) expected = config.run.frames;
+  PanelObserver panel(kCmd, gpio, config.gpio, stats, expected, config.run.progress);
 
   const slam::SurfelSlam& slam = pipeline.slam();
   std::fprintf(stderr,
                "%s: source %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f), pool %lld surfels (%.0f MB)\n",
-               kCmd, config.source.c_str(), info.intrinsics.width, info.intrinsics.height,
-               info.frame_count >= 0 ? std::to_string(info.frame_count).c_str() : "unknown", config.width,
-               config.height, slam.predictor().intrinsics().fx, static_cast<long long>(config.surfel_capacity),
+               kCmd, config.run.source.c_str(), info.intrinsics.width, info.intrinsics.height,
+               info.frame_count >= 0 ? std::to_string(info.frame_count).c_str() : "unknown", config.run.resolution.width,
+               config.run.resolution.height, slam.predictor().intrinsics().fx,
+               static_cast<long long>(config.mapping.pool.capacity),
                static_cast<double>(slam.pool_bytes()) / 1e6);
-  const int slots = config.threads == 1 ? 1 : config.prepared_slots;
-  const char* layout = config.threads == 1   ? "front, CNN and mapping in turn on one thread"
-                       : config.threads == 2 ? "front + CNN beside mapping"
+  const int threads = config.pipeline.threads;
+  const int slots = config.pipeline.slots();
+  const char* layout = threads == 1   ? "front, CNN and mapping in turn on one thread"
+                       : threads == 2 ? "front + CNN beside mapping"
                                              : "front, CNN and mapping each on its own";
-  std::fprintf(stderr, "%s: %d thread%s (%s), %d frame slot%s of %.1f MB%s\n", kCmd, config.threads,
-               config.threads == 1 ? "" : "s", layout, slots, slots == 1 ? "" : "s",
+  std::fprintf(stderr, "%s: %d thread%s (%s), %d frame slot%s of %.1f MB%s\n", kCmd, threads,
+               threads == 1 ? "" : "s", layout, slots, slots == 1 ? "" : "s",
                static_cast<double>(pipeline.slot_bytes()) / 1e6,
-               info.live ? (", capture thread with " + std::to_string(config.capture_slots) + " slots").c_str() : "");
+               info.live ? (", capture thread with " + std::to_string(config.pipeline.capture_slots) + " slots").c_str() : "");
   if (pipeline.semantics() != nullptr)
     std::fprintf(stderr, "%s: %s\n", kCmd, pipeline.semantics()->describe().c_str());
   else
     std::fprintf(stderr, "%s: labels off (geometry only)\n", kCmd);
   std::fprintf(stderr, "%s: memory plan %.1f MB of the %lld MB budget (`edgefusion plan` lists the parts)\n", kCmd,
-               static_cast<double>(plan->total_bytes) / 1e6, static_cast<long long>(config.memory_budget_mb));
+               static_cast<double>(plan->total_bytes) / 1e6, static_cast<long long>(config.memory.budget_mb));
 
   panel.set_led(LedPattern::kTracking);
   const RunOutcome outcome = pipeline.run(panel);
@@ -230,17 +222,17 @@ int cmd_run(int argc, char** argv) {
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
   std::printf("stats: %s\n", files.stats.c_str());
   // The final map's labels in the recording's frames: a second reading, after the outputs are safe.
-  if (!config.labels_final_out.empty() && outcome.frames > 0) {
+  if (!config.labels.final_out.empty() && outcome.frames > 0) {
     std::fprintf(stderr, "%s: rendering the final map's labels into %s, every %d frames\n", kCmd,
-                 config.source.c_str(), config.labels_out_every);
-    auto replay = open_source(config.source);
+                 config.run.source.c_str(), config.labels.out_every);
+    auto replay = open_source(config.run.source);
     auto counts = replay.ok() ? pipeline.render_final_labels(**replay) : Result<FinalLabelCounts>(replay.error());
     if (!counts.ok()) {
       report_error(kCmd, counts.error(), 1);
       exit_code = 1;
     } else {
       std::printf("final labels: %lld images in %s (%lld of lost frames: the CNN's labels; %lld frames not mapped)\n",
-                  static_cast<long long>(counts->images_written), config.labels_final_out.c_str(),
+                  static_cast<long long>(counts->images_written), config.labels.final_out.c_str(),
                   static_cast<long long>(counts->from_cnn_only), static_cast<long long>(counts->not_mapped));
     }
   }

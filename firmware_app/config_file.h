@@ -1,5 +1,19 @@
-// Reading the configuration of `edgefusion run` and `edgefusion plan` (pipeline/run_config.h) from a
-// YAML file and the command line.
+// Reading the configuration of `edgefusion run` and `edgefusion plan` (pipeline/run_config.h): from
+// defaults, then an optional YAML file, then the command line (each later one overrides the
+// earlier). Every key, flat name and flag comes from the options tables (pipeline::config_keys()).
+//
+// The file is YAML (read with yaml-cpp). Options sit at the top level or in sections; a section key
+// that has an older flat name can be given either way, so both of these set the same option:
+//
+//   mapping: {surfel_capacity: 500000}        surfel_capacity: 500000
+//   labels: {every: 5}                        label_every: 5
+//
+// A URI such as `synthetic:` or `openni2:` ends in ':', which YAML reads as a nested key: the reader
+// quotes such a plain value on a `key: value` line itself (inside `{ }`, write it in quotes).
+//
+// Errors name the file, the line, the key (as written: `crf_iterations`, or the section path
+// `crf.iterations`) and the bad value. Unknown keys, a key given twice and YAML syntax errors are
+// errors too. The checks between keys and against the machine are RunConfig::validate()'s.
 #pragma once
 
 #include <string>
@@ -13,13 +27,12 @@ namespace ef::app {
 
 using pipeline::RunConfig;
 
-// A complete YAML configuration file: every option in its section, with its unit, range and
-// default as a comment. Reading it back (apply_config_file) gives this configuration again.
-// Empty strings (out, model, labels out) are written as commented-out keys.
+// RunConfig::describe(): the configuration as a complete YAML file with every key documented.
 std::string describe_config(const RunConfig& config);
 
 // Applies the keys of a YAML configuration file to `config`. Errors (kInvalidArgument; kNotFound
-// when the file cannot be opened) name the file, the line, the key path and the bad value.
+// when the file cannot be opened) name the file, the line, the key path and the bad value; a file
+// with an error leaves `config` as it was.
 Status apply_config_file(const std::string& path, RunConfig& config);
 
 // The same for the text of a file; `name` stands for the file in messages.
@@ -31,17 +44,16 @@ Status apply_config_text(const std::string& text, const std::string& name, RunCo
 Status apply_config_value(const std::string& key, const std::string& value, const std::string& where,
                           RunConfig& config);
 
-// Every option key, as a section path ("source", "mapping.surfel_capacity", ...), in file order.
-std::vector<std::string> config_keys();
+// Every key as a section path ("source", "mapping.surfel_capacity", ...), in file order.
+std::vector<std::string> config_key_paths();
 
-// Command-line options that override configuration keys, shared by `run` and `plan`: --config,
-// --source, --resolution, --frames, --out, --quiet, --model, --no-labels, --label-every,
-// --labels-out, --labels-out-every, --crf-every, --crf-final, --crf-iterations, --surfel-capacity,
-// --memory-budget-mb, --threads.
+// The command-line options of `run` and `plan`: --config FILE, then the flag of every key that has
+// one (--source, --resolution, ..., --no-labels, --threads), with its help from the key's table.
 const std::vector<OptionSpec>& config_override_options();
 
 // Builds the configuration of a command line parsed with config_override_options(): defaults, then
-// --config FILE, then every override. Errors name the file / option, the key and the value.
+// --config FILE, then every flag. Errors name the file / option, the key and the value. Does not
+// validate() the result: the commands do, after it.
 Result<RunConfig> config_from_args(const ParsedArgs& args);
 
 }  // namespace ef::app

@@ -4,14 +4,20 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace ef {
 
 // Cores this process may run on (its affinity mask at start-up), at least 1.
 int available_cpu_cores();
+// Their numbers, ascending ({0, 1} on a two-core machine). Never empty.
+std::vector<int> usable_cpu_cores();
+// "cores 0-3", "cores 0, 2-3", "core 0".
+std::string cores_text(const std::vector<int>& cores);
 
-// Empty when core `cpu` (0-based) exists on this machine, else why not: "core 5 does not exist
-// (this machine has cores 0..3)". Configuration checks call it before any thread starts.
+// Empty when core `cpu` (0-based) is one this process may use, else why not: "core 5 does not exist
+// (this process may use cores 0-3)". The run's configuration is checked before any thread starts
+// (pipeline::RunConfig::validate); pinning checks again.
 std::string cpu_core_missing(int cpu);
 
 // Pins the calling thread to core `cpu` (0-based). Returns an empty string on success, else why

@@ -9,6 +9,34 @@ std::string GpioLineConfig::describe() const {
   return chip + ":" + std::to_string(offset) + (active_low ? " (active low)" : "");
 }
 
+const opt::Table<GpioLineConfig>& GpioLineConfig::table() {
+  static const opt::Table<GpioLineConfig> t = {
+      {"chip", "", "", &GpioLineConfig::chip, "a chip name, /dev path, number or label", opt::any(),
+       "GPIO chip (name, /dev path, number or label)"},
+      {"line", "", "", &GpioLineConfig::offset, "", opt::between(0, 1023), "line offset on that chip"},
+      {"active_low", "", "", &GpioLineConfig::active_low, "", opt::any(), "active when its pin is low"},
+  };
+  return t;
+}
+
+Status GpioLineConfig::validate() const { return opt::check_table(*this, table(), "gpio line"); }
+
+const opt::Table<GpioOptions>& GpioOptions::table() {
+  static const opt::Table<GpioOptions> t = {
+      {"debounce_ms", "", "", &GpioOptions::debounce_ms, "milliseconds", opt::between(1, 1000),
+       "a button level must hold this long to count"},
+      {"optional", "", "", &GpioOptions::optional, "", opt::any(),
+       "a missing chip or line is a warning and the run goes on without it"},
+  };
+  return t;
+}
+
+Status GpioOptions::validate() const {
+  EF_RETURN_IF_ERROR(led.validate());
+  EF_RETURN_IF_ERROR(button.validate());
+  return opt::check_table(*this, table(), "gpio");
+}
+
 std::string GpioOptions::describe() const {
   return "led=" + led.describe() + " button=" + button.describe() +
          " button_pull_up=" + (button_pull_up ? "true" : "false") + " debounce_ms=" + std::to_string(debounce_ms) +

@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "core/options.h"
 #include "core/result.h"
 
 namespace ef {
@@ -39,6 +40,9 @@ struct GpioLineConfig {
   bool active_low = false; // true when the LED / button is wired to pull the pin low when active
   bool used() const { return !chip.empty(); }
   std::string describe() const;  // "gpiochip0:17 (active low)"
+  // The keys of one line (section gpio, bound as led_* and button_*): chip, line, active_low.
+  static const opt::Table<GpioLineConfig>& table();
+  Status validate() const;
 };
 
 // Opens an output line, driven inactive at first. Errors: kNotFound naming the chip when it does
@@ -62,6 +66,9 @@ struct GpioOptions {
   bool optional = false;    // true: a missing chip or line is a warning and the run goes on
                             // without that line; false (default): it is an error
   std::string describe() const;  // one line, every field
+  // The keys of the panel (section gpio): debounce_ms, optional; the lines' own in GpioLineConfig.
+  static const opt::Table<GpioOptions>& table();
+  Status validate() const;  // both lines and the fields above
 };
 
 // The lines of GpioOptions. A null pointer: the line is not configured, or it is optional and

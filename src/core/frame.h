@@ -35,6 +35,11 @@ struct Frame {
   std::size_t bytes() const {
     return color.size() * sizeof(Rgb8) + depth.size() * sizeof(float) + labels.size() * sizeof(uint8_t);
   }
+  // What allocate(width, height, with_labels) allocates: 7 bytes per pixel, 8 with labels.
+  static std::size_t bytes_for(int width, int height, bool with_labels) {
+    const std::size_t px = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+    return px * (sizeof(Rgb8) + sizeof(float) + (with_labels ? sizeof(uint8_t) : 0));
+  }
 };
 
 // Copies everything but the images (timestamp, index, pose, name). has_labels is left to the caller,

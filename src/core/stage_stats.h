@@ -30,8 +30,10 @@ struct StageSummary {
 
 class StageStats {
  public:
+  static constexpr std::size_t kDefaultCapacity = 4096;
   // capacity: samples kept per stage (e.g. the number of frames of a run, or 4096 as a reservoir).
-  explicit StageStats(std::size_t capacity = 4096, std::size_t max_stages = 32, std::size_t max_counters = 64);
+  explicit StageStats(std::size_t capacity = kDefaultCapacity, std::size_t max_stages = 32,
+                      std::size_t max_counters = 64);
   StageStats(const StageStats&) = delete;
   StageStats& operator=(const StageStats&) = delete;
 
@@ -61,6 +63,12 @@ class StageStats {
   const std::string& counter_name(int id) const { return counter_names_[id]; }
   uint64_t counter(int id) const { return counters_[id].load(std::memory_order_relaxed); }
   std::size_t capacity() const { return capacity_; }
+  // Bytes of the samples of `stages` stages and the summary's scratch row (8 bytes per sample).
+  static std::size_t bytes_for(std::size_t stages, std::size_t capacity = kDefaultCapacity) {
+    return (stages + 1) * capacity * sizeof(double);
+  }
+  // The same for the stages registered so far.
+  std::size_t bytes() const { return bytes_for(stages_.size(), capacity_); }
 
   // Summary of one stage. Uses a scratch buffer preallocated at construction (no allocation), so it
   // is not thread-safe even though it is const.

@@ -53,7 +53,24 @@ ConvShape conv_shape(const ModelDesc& d, const LayerDesc& l) {
   return ConvShape{int(in.c), int(out.c), int(l.kernel_h), int(l.kernel_w), in.zero_point};
 }
 
+bool is_conv(LayerType t) {
+  return t == LayerType::kConv2d || t == LayerType::kDepthwiseConv2d || t == LayerType::kPointwiseConv2d;
+}
+
+// The convolution variant a layer of type `t` runs under `max_isa` (bind() and packed_bytes_for()).
+const kernels::KernelVariant<ConvKernelPtr>* conv_variant(LayerType t, kernels::Isa max_isa) {
+  return t == LayerType::kDepthwiseConv2d ? pick(kDwConvI8Variants, max_isa) : pick(kConvI8Variants, max_isa);
+}
+
 }  // namespace
+
+std::size_t Executor::packed_bytes_for(const Model& model, const ExecutorOptions& options) {
+  const ModelDesc& d = model.desc;
+  std::size_t total = Arena::kMaxAlign;
+  for (const LayerDesc& l : d.layers)
+    if (is_conv(l.type)) total += (conv_variant(l.type, options.max_isa)->fn->packed_bytes(conv_shape(d, l)) + 63) / 64 * 64;
+  return total;
+}
 
 const char* Executor::kernel_name(std::size_t layer) const {
   return layer < steps_.size() && steps_[layer].variant_name ? steps_[layer].variant_name : "";
@@ -72,10 +89,7 @@ Result<std::unique_ptr<Executor>> Executor::create(const Model& model, const Exe
 
 Status Executor::pack_weights() {
   const ModelDesc& d = model_.desc;
-  std::size_t total = Arena::kMaxAlign;
-  for (std::size_t li = 0; li < steps_.size(); ++li)
-    if (steps_[li].conv) total += (steps_[li].conv->fn->packed_bytes(conv_shape(d, d.layers[li])) + 63) / 64 * 64;
-  packed_ = std::make_unique<Arena>(total);
+  packed_ = std::make_unique<Arena>(packed_bytes_for(model_, options_));
   for (std::size_t li = 0; li < steps_.size(); ++li) {
     Step& s = steps_[li];
     if (!s.conv) continue;
@@ -128,8 +142,7 @@ Status Executor::bind() {
       case LayerType::kConv2d:
       case LayerType::kDepthwiseConv2d:
       case LayerType::kPointwiseConv2d: {
-        s.conv = l.type == LayerType::kDepthwiseConv2d ? pick(kDwConvI8Variants, options_.max_isa)
-                                                       : pick(kConvI8Variants, options_.max_isa);
+        s.conv = conv_variant(l.type, options_.max_isa);
         s.variant_name = s.conv->name;
         ConvArgs& a = s.conv_args;
         a.in = view(l.inputs[0]);

@@ -66,6 +66,9 @@ class Executor {
   const char* kernel_name(std::size_t layer) const;
   // Bytes of repacked weights held by this executor.
   std::size_t packed_bytes() const { return packed_ ? packed_->used() : 0; }
+  // The capacity of the packed-weight arena create() allocates for `model` (every convolution's
+  // blob in its variant's layout, 64-byte aligned): at most 64 bytes above packed_bytes().
+  static std::size_t packed_bytes_for(const Model& model, const ExecutorOptions& options = {});
   std::size_t arena_bytes() const { return plan_.total_bytes; }
   std::size_t input_floats() const { return input_elems_; }
   std::size_t output_floats() const { return output_elems_; }

@@ -615,4 +615,15 @@ Result<Model> load_model(const std::string& path) {
   return load_model_memory(bytes.data(), bytes.size(), path);
 }
 
+std::size_t Model::bytes() const {
+  std::size_t b = 0;
+  for (const LayerDesc& l : desc.layers)
+    b += l.weights.size() + l.bias.size() * sizeof(int32_t) + l.weight_scales.size() * sizeof(float);
+  for (const PreparedLayer& p : prepared)
+    b += p.requant.size() * sizeof(Requant) + p.packed.size() + p.bias.size() * sizeof(int32_t) +
+         p.exp_table.size() * sizeof(float);
+  b += desc.tensors.size() * sizeof(TensorDesc) + desc.layers.size() * sizeof(LayerDesc);
+  return b;
+}
+
 }  // namespace ef::nn

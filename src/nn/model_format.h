@@ -124,6 +124,10 @@ struct Model {
   std::string source;  // file name (or the name given to load_model_memory), used in messages
   ModelDesc desc;
   std::vector<PreparedLayer> prepared;  // one per layer
+
+  // Bytes of its arrays: the file's weights, biases and scales, their prepared copies
+  // (requantisation, packed weights, biases, tables) and the tensor and layer tables.
+  std::size_t bytes() const;
 };
 
 // Writes the .efm v1 bytes of `desc`. Validates first (the same checks as the loader), so that a

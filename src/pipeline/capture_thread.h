@@ -38,6 +38,11 @@ class CaptureThread {
   // source: borrowed, must outlive this object and not be used by anyone else meanwhile.
   // slots: ring capacity (>= 2); each slot is sized for the source's frames.
   CaptureThread(FrameSource& source, int slots);
+  // What the constructor allocates: `slots` frames of width x height (with labels when the source
+  // has them).
+  static std::size_t bytes_for(int slots, int width, int height, bool with_labels) {
+    return std::size_t(slots) * Frame::bytes_for(width, height, with_labels);
+  }
   ~CaptureThread();
   CaptureThread(const CaptureThread&) = delete;
   CaptureThread& operator=(const CaptureThread&) = delete;

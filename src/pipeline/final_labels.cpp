@@ -23,7 +23,7 @@ bool same_time(double a, double b) { return std::fabs(a - b) <= kTimestampTolera
 
 }  // namespace
 
-Result<FinalLabelBuffers> FinalLabelBuffers::create(const RunConfig& config, const SourceInfo& recording,
+Result<FinalLabelBuffers> FinalLabelBuffers::create(const RunOptions& run, const SourceInfo& recording,
                                                     const slam::SurfelSlam& slam, const RunSemantics& semantics) {
   // The whole map: the tracking prediction's active time window would hide what the run saw long ago.
   const slam::ModelPredictor& live = slam.predictor();
@@ -33,36 +33,43 @@ Result<FinalLabelBuffers> FinalLabelBuffers::create(const RunConfig& config, con
   if (!predictor.ok()) return predictor.take_error();
   FinalLabelBuffers b{std::move(*predictor), Frame{}, Frame{}, CnnResult{}, Image<uint8_t>{}};
   b.input.allocate(recording.intrinsics.width, recording.intrinsics.height, recording.has_labels);
-  b.working.allocate(config.width, config.height, recording.has_labels);
+  b.working.allocate(run.resolution.width, run.resolution.height, recording.has_labels);
   semantics.allocate(b.cnn);
-  b.rendered.allocate(config.width, config.height);
+  b.rendered.allocate(run.resolution.width, run.resolution.height);
   return b;
+}
+
+std::size_t FinalLabelBuffers::bytes_for(const RunOptions& run, int source_width, int source_height, bool with_labels,
+                                         std::size_t predictor_bytes, std::size_t cnn_result_bytes) {
+  const int w = run.resolution.width, h = run.resolution.height;
+  return predictor_bytes + Frame::bytes_for(source_width, source_height, with_labels) +
+         Frame::bytes_for(w, h, with_labels) + cnn_result_bytes + std::size_t(w) * std::size_t(h);
 }
 
 std::size_t FinalLabelBuffers::bytes() const {
   return predictor.bytes() + input.bytes() + working.bytes() + cnn.bytes() + rendered.size();
 }
 
-Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSource& replay,
+Result<FinalLabelCounts> render_final_labels(const RunOptions& run, const LabelOptions& labels, FrameSource& replay,
                                              const std::string& trajectory_path, const slam::SurfelSlam& slam,
                                              RunSemantics& semantics) {
   auto trajectory = read_tum_trajectory(trajectory_path);  // lost frames come marked (io/trajectory_io.h)
   if (!trajectory.ok()) return trajectory.take_error();
 
   const SourceInfo& info = replay.info();
-  auto buffers = FinalLabelBuffers::create(config, info, slam, semantics);
+  auto buffers = FinalLabelBuffers::create(run, info, slam, semantics);
   if (!buffers.ok()) return buffers.take_error();
   auto& [predictor, input, working, cnn, rendered] = *buffers;
 
   const std::vector<TimedPose>& poses = trajectory->poses;
   const int32_t last_frame = static_cast<int32_t>(slam.frames() > 0 ? slam.frames() - 1 : 0);
   int64_t expected = info.frame_count;
-  if (config.max_frames > 0 && (expected < 0 || config.max_frames < expected)) expected = config.max_frames;
-  Progress progress("final labels", expected, config.progress);
+  if (run.frames > 0 && (expected < 0 || run.frames < expected)) expected = run.frames;
+  Progress progress("final labels", expected, run.progress);
   char line[64];
   FinalLabelCounts counts;
   std::size_t next_pose = 0;
-  for (int64_t number = 0; config.max_frames < 0 || number < config.max_frames; ++number) {
+  for (int64_t number = 0; run.frames < 0 || number < run.frames; ++number) {
     auto got = replay.next(input);
     if (!got.ok()) return got.take_error();
     if (!*got) break;
@@ -73,7 +80,7 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
     const double t = input.timestamp;
     while (next_pose < poses.size() && poses[next_pose].timestamp < t - kTimestampToleranceS) ++next_pose;
     const bool has_pose = next_pose < poses.size() && same_time(poses[next_pose].timestamp, t);
-    if (number % config.labels_out_every != 0) continue;
+    if (number % labels.out_every != 0) continue;
     if (!has_pose) {
       ++counts.not_mapped;
       continue;
@@ -88,10 +95,10 @@ Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSourc
       EF_RETURN_IF_ERROR(predictor.predict(slam.pool(), poses[next_pose].T_wc, last_frame,
                                            slam.tracking_min_confidence()));
       auto r = semantic::render_labels(predictor, slam.pool(), cnn.labels.view(), rendered.view(),
-                                      config.label_visibility ? working.depth.view() : ImageView<const float>());
+                                      semantics.visible_depth(working.depth.view()));
       if (!r.ok()) return r.take_error();
     }
-    EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(config.labels_final_out, working), rendered.view()));
+    EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(labels.final_out, working), rendered.view()));
     ++counts.images_written;
   }
   progress.finish(counts.frames_read);

@@ -44,10 +44,16 @@ struct FinalLabelBuffers {
   Image<uint8_t> rendered;         // class ids at the working size
 
   // Errors: those of ModelPredictor::create.
-  static Result<FinalLabelBuffers> create(const RunConfig& config, const SourceInfo& recording,
+  static Result<FinalLabelBuffers> create(const RunOptions& run, const SourceInfo& recording,
                                           const slam::SurfelSlam& slam, const RunSemantics& semantics);
   // Bytes of the buffers above (the predictor's by ModelPredictor::bytes()).
   std::size_t bytes() const;
+  // What create() allocates: a recording frame of `source_width` x `source_height` and a working
+  // frame (with labels when the recording has them), a predictor of `predictor_bytes`
+  // (ModelPredictor::bytes_for), a CNN result of `cnn_result_bytes` (CnnResult::bytes_for) and the
+  // rendered class ids at the working size.
+  static std::size_t bytes_for(const RunOptions& run, int source_width, int source_height, bool with_labels,
+                               std::size_t predictor_bytes, std::size_t cnn_result_bytes);
 };
 
 struct FinalLabelCounts {
@@ -61,7 +67,9 @@ struct FinalLabelCounts {
 // caller refuses it). trajectory_path: the run's closed trajectory.txt. slam: the finished map.
 // semantics: the run's (its segmenter gives the fallback). Errors name the file or the frame:
 // trajectory unreadable, a source error, a write failure.
-Result<FinalLabelCounts> render_final_labels(const RunConfig& config, FrameSource& replay,
+// run: the working resolution, max frames and the progress line; labels: out_every and the
+// folder (final_out).
+Result<FinalLabelCounts> render_final_labels(const RunOptions& run, const LabelOptions& labels, FrameSource& replay,
                                              const std::string& trajectory_path, const slam::SurfelSlam& slam,
                                              RunSemantics& semantics);
 

@@ -13,12 +13,13 @@ namespace {
 constexpr std::chrono::milliseconds kCaptureWait(200);
 }  // namespace
 
-Result<std::unique_ptr<FrontStage>> FrontStage::create(const RunConfig& config, FrameSource& source,
-                                                       const slam::SurfelSlam& slam, RunSemantics* semantics) {
-  std::unique_ptr<FrontStage> f(new FrontStage(config, source, slam, semantics));
+Result<std::unique_ptr<FrontStage>> FrontStage::create(const RunOptions& run, const PipelineOptions& pipeline,
+                                                       FrameSource& source, const slam::SurfelSlam& slam,
+                                                       RunSemantics* semantics) {
+  std::unique_ptr<FrontStage> f(new FrontStage(run, pipeline, source, slam, semantics));
   const SourceInfo& info = source.info();
   if (info.live) {
-    f->capture_ = std::make_unique<CaptureThread>(source, config.capture_slots);
+    f->capture_ = std::make_unique<CaptureThread>(source, pipeline.capture_slots);
   } else {
     f->input_.allocate(info.intrinsics.width, info.intrinsics.height, info.has_labels);
   }
@@ -31,7 +32,7 @@ FrontStage::~FrontStage() {
 
 Status FrontStage::allocate(PreparedFrame& slot) const {
   const SourceInfo& info = source_.info();
-  slot.working.allocate(config_.width, config_.height, info.has_labels);
+  slot.working.allocate(run_.resolution.width, run_.resolution.height, info.has_labels);
   auto pre = slam_.make_preprocessor();
   if (!pre.ok()) return pre.take_error();
   slot.pre.emplace(std::move(*pre));
@@ -40,7 +41,7 @@ Status FrontStage::allocate(PreparedFrame& slot) const {
 }
 
 void FrontStage::start_capture() {
-  if (capture_ != nullptr) capture_->start(config_.capture_cpu);
+  if (capture_ != nullptr) capture_->start(pipeline_.capture_cpu);
 }
 
 FrontStage::Step FrontStage::end(PreparedFrame& slot, std::optional<Error> error) {
@@ -68,7 +69,7 @@ FrontStage::Step FrontStage::step(PreparedFrame& slot) {
   slot.error.reset();
   slot.cnn.valid = false;
   if (ended_) return end(slot, std::nullopt);
-  if (config_.max_frames >= 0 && delivered_ >= config_.max_frames) return end(slot, std::nullopt);
+  if (run_.frames >= 0 && delivered_ >= run_.frames) return end(slot, std::nullopt);
 
   const SteadyClock::time_point t_source = SteadyClock::now();
   const Frame* captured = nullptr;
@@ -90,7 +91,7 @@ FrontStage::Step FrontStage::step(PreparedFrame& slot) {
     if (!got.ok()) return end(slot, got.error());
     if (!*got) return end(slot, std::nullopt);
     captured = &input_;
-    if (config_.realtime) pace(input_.timestamp);
+    if (run_.realtime) pace(input_.timestamp);
   }
   slot.source_ms = ms_since(t_source);
 

@@ -46,6 +46,15 @@ struct PreparedFrame {
   double preprocess_ms = 0;
   bool end = false;                       // no frame: the stream ended, the stage was stopped or
   std::optional<Error> error;             // max_frames reached (error empty), or the source failed
+
+  // Bytes of one slot: the working frame, its preprocessor and the CNN result.
+  std::size_t bytes() const { return working.bytes() + (pre ? pre->bytes() : 0) + cnn.bytes(); }
+  // What FrontStage::allocate() sizes: a working frame (with labels when the source has them),
+  // `preprocessor_bytes` (slam::Preprocessor::bytes_for) and `cnn_result_bytes` (0 without labels).
+  static std::size_t bytes_for(int working_width, int working_height, bool with_labels, std::size_t preprocessor_bytes,
+                               std::size_t cnn_result_bytes) {
+    return Frame::bytes_for(working_width, working_height, with_labels) + preprocessor_bytes + cnn_result_bytes;
+  }
 };
 
 class FrontStage {
@@ -53,8 +62,11 @@ class FrontStage {
   // source, slam, semantics: borrowed, must outlive the stage; semantics may be null (no labels).
   // slam only provides make_preprocessor(). A live source gets its capture thread here (started by
   // start_capture()).
-  static Result<std::unique_ptr<FrontStage>> create(const RunConfig& config, FrameSource& source,
-                                                    const slam::SurfelSlam& slam, RunSemantics* semantics);
+  // run: the working resolution, max frames, realtime pacing; pipeline: the capture ring's slots
+  // and core.
+  static Result<std::unique_ptr<FrontStage>> create(const RunOptions& run, const PipelineOptions& pipeline,
+                                                    FrameSource& source, const slam::SurfelSlam& slam,
+                                                    RunSemantics* semantics);
   ~FrontStage();
   FrontStage(const FrontStage&) = delete;
   FrontStage& operator=(const FrontStage&) = delete;
@@ -62,7 +74,7 @@ class FrontStage {
   // Sizes one slot (start-up; allocates). Errors: the preprocessor's.
   Status allocate(PreparedFrame& slot) const;
 
-  // Live sources: starts reading the camera on the capture thread (pinned to config.capture_cpu
+  // Live sources: starts reading the camera on the capture thread (pinned to pipeline.capture_cpu
   // when >= 0). Does nothing for recordings.
   void start_capture();
 
@@ -89,12 +101,14 @@ class FrontStage {
   uint64_t corrupt_dropped() const { return capture_ != nullptr ? capture_->corrupt_dropped() : 0; }
 
  private:
-  FrontStage(const RunConfig& config, FrameSource& source, const slam::SurfelSlam& slam, RunSemantics* semantics)
-      : config_(config), source_(source), slam_(slam), semantics_(semantics) {}
+  FrontStage(const RunOptions& run, const PipelineOptions& pipeline, FrameSource& source,
+             const slam::SurfelSlam& slam, RunSemantics* semantics)
+      : run_(run), pipeline_(pipeline), source_(source), slam_(slam), semantics_(semantics) {}
   Step end(PreparedFrame& slot, std::optional<Error> error);
   void pace(double timestamp);
 
-  const RunConfig config_;
+  const RunOptions run_;
+  const PipelineOptions pipeline_;
   FrameSource& source_;
   const slam::SurfelSlam& slam_;
   RunSemantics* semantics_;

@@ -1,39 +1,28 @@
 #include "pipeline/mapping_stage.h"
 
 #include <cstdio>
+#include <iterator>
 
 #include "core/stopwatch.h"
 
 namespace ef::pipeline {
 
-slam::SurfelSlamOptions slam_options(const RunConfig& config) {
-  slam::SurfelSlamOptions o;
-  o.pool.capacity = config.surfel_capacity;
-  o.tracker.icp_weight = config.icp_weight;
-  o.tracker.rgb_weight = config.rgb_weight;
-  o.tracker.rgb_boost_condition = config.rgb_boost_condition;
-  o.tracker.rgb_boost_max = config.rgb_boost_max;
-  o.constant_velocity_guess = config.constant_velocity_guess;
-  o.preprocess.depth_cutoff_m = config.depth_cutoff_m;
-  o.prediction.index_map_scale = config.index_map_scale;
-  o.associate_at_tracked_pose = config.associate_at_tracked_pose;
+slam::SurfelSlamOptions MappingStage::slam_options(const slam::SurfelSlamOptions& options) {
+  slam::SurfelSlamOptions o = options;
   o.own_preprocessor = false;  // the front step preprocesses, into each slot's own Preprocessor
   return o;
 }
 
-Result<std::unique_ptr<MappingStage>> MappingStage::create(const RunConfig& config, const Intrinsics& working,
-                                                           StageStats& stats, RunSemantics* semantics,
-                                                           const std::string& trajectory_path) {
-  auto slam = slam::SurfelSlam::create(working, slam_options(config));
+Result<std::unique_ptr<MappingStage>> MappingStage::create(const slam::SurfelSlamOptions& options,
+                                                           const Intrinsics& working, StageStats& stats,
+                                                           RunSemantics* semantics, const std::string& trajectory_path) {
+  auto slam = slam::SurfelSlam::create(working, slam_options(options));
   if (!slam.ok()) return slam.take_error();
   std::unique_ptr<MappingStage> m(new MappingStage(std::move(*slam), stats, semantics));
   EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path));
-  // Front stage (per frame, measured on its thread): getting, resampling and preprocessing the frame.
-  m->st_ = StageIds{stats.add_stage("source"), stats.add_stage("resample"), stats.add_stage("preprocess"),
-                    stats.add_stage("front_total"),
-                    // Mapping stage: the SLAM's steps, their sum, and the whole stage with labels and output.
-                    stats.add_stage("track"), stats.add_stage("fuse"), stats.add_stage("predict"),
-                    stats.add_stage("slam_total"), stats.add_stage("mapping_total")};
+  int ids[std::size(kStageNames)];
+  for (std::size_t i = 0; i < std::size(kStageNames); ++i) ids[i] = stats.add_stage(kStageNames[i]);
+  m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8]};
   m->c_ = CounterIds{stats.add_counter("frames"), stats.add_counter("frames_with_pose"),
                      stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
                      stats.add_counter("fused_frames")};

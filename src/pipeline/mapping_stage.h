@@ -28,16 +28,22 @@
 
 namespace ef::pipeline {
 
-// The SurfelSlam options of a run.
-slam::SurfelSlamOptions slam_options(const RunConfig& config);
-
 class MappingStage {
  public:
-  // working: intrinsics at the working resolution. semantics: borrowed, may be null. The trajectory
-  // is written to `trajectory_path` (created now). Errors: the SLAM's options, the file's.
-  static Result<std::unique_ptr<MappingStage>> create(const RunConfig& config, const Intrinsics& working,
-                                                      StageStats& stats, RunSemantics* semantics,
-                                                      const std::string& trajectory_path);
+  // The stages it records into StageStats: the front step's (measured on its thread, carried in
+  // the slot), the SLAM's steps and their sum, and the whole mapping step.
+  static constexpr const char* kStageNames[] = {"source", "resample", "preprocess", "front_total", "track",
+                                                "fuse",   "predict",  "slam_total", "mapping_total"};
+
+  // options: the run's SLAM (the front step preprocesses, so the SLAM gets no preprocessor of its
+  // own: options.own_preprocessor is set false here). working: intrinsics at the working
+  // resolution. semantics: borrowed, may be null. The trajectory is written to `trajectory_path`
+  // (created now). Errors: the SLAM's options, the file's.
+  static Result<std::unique_ptr<MappingStage>> create(const slam::SurfelSlamOptions& options,
+                                                      const Intrinsics& working, StageStats& stats,
+                                                      RunSemantics* semantics, const std::string& trajectory_path);
+  // The options create() gives the SLAM.
+  static slam::SurfelSlamOptions slam_options(const slam::SurfelSlamOptions& options);
 
   // Maps one prepared frame (not an end marker). Errors: the SLAM's, the labels', a failed write of
   // the trajectory; the map keeps every frame mapped before.

@@ -1,29 +1,29 @@
 #include "pipeline/memory_plan.h"
 
-#include "pipeline/mapping_stage.h"
-#include "pipeline/run_semantics.h"
-
 #include <algorithm>
 #include <cstdio>
+#include <iterator>
 #include <string>
 
 #include "core/arena.h"
-#include "core/image.h"
-#include "io/frame_source.h"
-#include "sources/open_source.h"
-#include "kernels/label_update.h"
-#include "pipeline/model_paths.h"
-#include "pipeline/run_semantics.h"
-#include "nn/conv_kernels.h"
+#include "core/frame.h"
+#include "core/stage_stats.h"
+#include "nn/executor.h"
 #include "nn/model_format.h"
 #include "nn/planner.h"
+#include "pipeline/capture_thread.h"
+#include "pipeline/final_labels.h"
+#include "pipeline/front_stage.h"
+#include "pipeline/mapping_stage.h"
+#include "pipeline/model_paths.h"
+#include "pipeline/run_semantics.h"
 #include "semantic/dense_crf.h"
-#include "semantic/label_store.h"
+#include "semantic/label_fusion.h"
+#include "semantic/segmenter.h"
 #include "slam/model_prediction.h"
 #include "slam/preprocess.h"
 #include "slam/spatial_order.h"
 #include "slam/surfel_fusion.h"
-#include "slam/spatial_order.h"
 #include "slam/surfel_pool.h"
 #include "slam/tracker.h"
 
@@ -33,50 +33,10 @@ namespace {
 
 using std::size_t;
 
-// Formulas below restate what each class's create() allocates, with the constants of its header.
-// Those marked "(from the .cpp)" use a number that only the class's .cpp knows; they belong in a
-// static bytes_for(...) of the class (see the report of issue 7).
+// Every part's bytes come from its class (a static bytes_for of the same options its create() is
+// given); this file only adds them up and says how each is made.
 
-constexpr size_t kFrameBytesPerPixel = sizeof(Rgb8) + sizeof(float) + sizeof(uint8_t);  // colour, depth, labels
-constexpr int kStageSamples = 4096;         // StageStats' default reservoir per stage (core/stage_stats.h)
-constexpr int kRunStages = 9;  // source, resample, preprocess, front_total, track, fuse, predict, slam_total, mapping_total
-constexpr int kLabelStages = 4;             // segment, label_fuse, label_render, crf (run_semantics)
-constexpr int kLabelFusionIndexScale = 4;   // LabelFusion sizes its pair list for the largest index scale
-
-size_t round64(size_t n) { return (n + 63) / 64 * 64; }
-size_t px(int w, int h) { return static_cast<size_t>(w) * static_cast<size_t>(h); }
 std::string size_text(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
-
-// Bytes of a loaded model's arrays (weights and their prepared copies, biases, tables).
-size_t model_bytes(const nn::Model& m) {
-  size_t b = 0;
-  for (const nn::LayerDesc& l : m.desc.layers)
-    b += l.weights.size() + l.bias.size() * sizeof(int32_t) + l.weight_scales.size() * sizeof(float);
-  for (const nn::PreparedLayer& p : m.prepared)
-    b += p.requant.size() * sizeof(nn::Requant) + p.packed.size() + p.bias.size() * sizeof(int32_t) +
-         p.exp_table.size() * sizeof(float);
-  b += m.desc.tensors.size() * sizeof(nn::TensorDesc) + m.desc.layers.size() * sizeof(nn::LayerDesc);
-  return b;
-}
-
-// What nn::Executor::pack_weights() allocates: one arena of 64-byte aligned blobs, one per
-// convolution, in the layout of the variant this CPU runs (nn/conv_kernels.h).
-size_t packed_weight_bytes(const nn::Model& m) {
-  const nn::ModelDesc& d = m.desc;
-  size_t total = Arena::kMaxAlign;
-  for (const nn::LayerDesc& l : d.layers) {
-    if (l.type != nn::LayerType::kConv2d && l.type != nn::LayerType::kDepthwiseConv2d &&
-        l.type != nn::LayerType::kPointwiseConv2d)
-      continue;
-    const auto& variant =
-        l.type == nn::LayerType::kDepthwiseConv2d ? nn::dwconv_i8_selected() : nn::conv_i8_selected();
-    const nn::TensorDesc& in = d.tensors[l.inputs[0]];
-    const nn::TensorDesc& out = d.tensors[l.output];
-    const nn::ConvShape shape{int(in.c), int(out.c), int(l.kernel_h), int(l.kernel_w), in.zero_point};
-    total += round64(variant.fn->packed_bytes(shape));
-  }
-  return total;
-}
 
 std::string mb_text(size_t bytes) {
   char buf[32];
@@ -112,7 +72,7 @@ std::string MemoryPlan::table() const {
 }
 
 Result<MemoryPlan> plan_memory(const RunConfig& config) {
-  EF_ASSIGN_OR_RETURN(const SourceProbe probe, probe_source(config.source));
+  EF_ASSIGN_OR_RETURN(const SourceProbe probe, probe_source(config.run.source));
   return plan_memory(config, probe);
 }
 
@@ -121,122 +81,104 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
   const auto add = [&plan](std::string name, size_t bytes, std::string detail) {
     plan.parts.push_back(MemoryPart{std::move(name), bytes, std::move(detail)});
   };
-  const int w = config.width, h = config.height;
-  const auto cap = static_cast<size_t>(config.surfel_capacity);
+  const int w = config.run.resolution.width, h = config.run.resolution.height;
+  const int64_t capacity = config.mapping.pool.capacity;
+  const bool labels = config.labels.enabled;
+  const std::string frame_what = probe.has_labels ? "colour, depth, labels" : "colour, depth";
 
-  // Frames (pipeline/run_pipeline.h): a recording's frame at its own size, or the capture ring
-  // of a live camera; colour + depth + labels.
+  // Frames: a recording's frame at its own size (pipeline/front_stage.h), or the capture ring of a
+  // live camera (pipeline/capture_thread.h).
   const std::string note = probe.size_assumed ? " (assumed: no size= in the URI)" : "";
-  struct {
-    int w, h;
-  } const src{probe.width, probe.height};
-  const bool live = probe.live;
-  const size_t source_frames = live ? static_cast<size_t>(config.capture_slots) : 1;
-  add(live ? "capture ring" : "source frame", source_frames * px(src.w, src.h) * kFrameBytesPerPixel,
-      (live ? std::to_string(source_frames) + " slots x " : std::string()) + size_text(src.w, src.h) + note +
-          " x 8 bytes (colour, depth, labels)");
-
-  // SLAM (slam/surfel_slam.h) with the options `run` gives it.
-  const slam::SurfelSlamOptions slam = slam_options(config);
-  const slam::PreprocessOptions& pre = slam.preprocess;
-  const slam::PredictionOptions& pred = slam.prediction;
-  const slam::FusionOptions& fus = slam.fusion;
-  const slam::TrackerOptions& trk = slam.tracker;
-  const int levels = pre.levels;
-  // One preprocessor per prepared frame (below); not a part of its own: `run`'s SLAM has none
-  // (own_preprocessor = false).
-  const size_t preprocessor_bytes = slam::Preprocessor::bytes_for(w, h, pre);
-  add("slam tracker", slam::Tracker::bytes_for(w, h, levels, trk), "row tiles, the SO(3) level's images and rays");
-  add("surfel pool", slam::SurfelPool::bytes_for(config.surfel_capacity),
-      std::to_string(cap) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) + " bytes (label store " +
-          std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");
-  add("surfel spatial order", slam::SpatialOrder::bytes_for(static_cast<int64_t>(cap)),
-      "8 bytes x capacity + a " + std::to_string(slam::SpatialOrder::kKeys / 1024 * 4) +
-          " KiB histogram (slam/spatial_order.h)");
-  {
-    const int s = pred.index_map_scale;
-    add("model prediction", slam::ModelPredictor::bytes_for(w, h, levels, pred),
-        std::to_string(s) + "x index map " + size_text(w * s, h * s) + " x 24 bytes + " + std::to_string(levels) +
-            " predicted levels");
+  if (probe.live) {
+    const int slots = config.pipeline.capture_slots;
+    add("capture ring", CaptureThread::bytes_for(slots, probe.width, probe.height, probe.has_labels),
+        std::to_string(slots) + " slots x " + size_text(probe.width, probe.height) + note + " (" + frame_what + ")");
+  } else {
+    add("source frame", Frame::bytes_for(probe.width, probe.height, probe.has_labels),
+        size_text(probe.width, probe.height) + " (" + frame_what + ")");
   }
-  add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, pred.index_map_scale, config.surfel_capacity, fus),
-      "1 byte per index cell + 4 bytes x (min(capacity, index cells) + sweep + 2 x working pixels + 24 x working width)");
-  const int stages = kRunStages + (config.labels ? kLabelStages : 0);
-  add("stage statistics", static_cast<size_t>(stages + 1) * kStageSamples * sizeof(double),
-      std::to_string(stages) + " stages + 1 scratch x " + std::to_string(kStageSamples) + " samples x 8 bytes");
 
-  size_t cnn_result = 0;  // one frame's CNN probabilities and class ids (pipeline/run_semantics.h)
-  if (config.labels) {
-    const bool default_model = config.model.empty();
-    const std::string model_path = default_model ? default_model_path() : config.model;
-    EF_RETURN_IF_ERROR(check_model_file(model_path, default_model));
+  // SLAM (slam/surfel_slam.h) with the options the mapping stage gives it.
+  const slam::SurfelSlamOptions slam = MappingStage::slam_options(config.mapping);
+  const int levels = slam.preprocess.levels;
+  const int scale = slam.prediction.index_map_scale;
+  add("slam tracker", slam::Tracker::bytes_for(w, h, levels, slam.tracker), "row tiles, the SO(3) level's images and rays");
+  add("surfel pool", slam::SurfelPool::bytes_for(capacity),
+      std::to_string(capacity) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) + " bytes (label store " +
+          std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");
+  add("surfel spatial order", slam::SpatialOrder::bytes_for(capacity),
+      "8 bytes x capacity + a " + std::to_string(slam::SpatialOrder::kKeys / 1024 * 4) + " KiB histogram");
+  add("model prediction", slam::ModelPredictor::bytes_for(w, h, levels, slam.prediction),
+      std::to_string(scale) + "x index map " + size_text(w * scale, h * scale) + " + " + std::to_string(levels) +
+          " predicted levels");
+  add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, scale, capacity, slam.fusion),
+      "marks per index cell, seen surfels, the lifetime sweep, per-pixel measurements");
+  const size_t stages = std::size(MappingStage::kStageNames) + (labels ? std::size(RunSemantics::kStageNames) : 0);
+  add("stage statistics", StageStats::bytes_for(stages),
+      std::to_string(stages) + " stages + 1 scratch x " + std::to_string(StageStats::kDefaultCapacity) + " samples");
+
+  size_t cnn_result = 0;  // one frame's CNN probabilities and class ids (CnnResult)
+  if (labels) {
+    const std::string model_path = RunSemantics::model_path(config.labels);
+    EF_RETURN_IF_ERROR(check_model_file(model_path, config.labels.model.empty()));
     EF_ASSIGN_OR_RETURN(nn::Model model, nn::load_model(model_path));
     const nn::ModelDesc& d = model.desc;
     const nn::TensorDesc& in = d.tensors[d.input_tensor];
     const nn::TensorDesc& out = d.tensors[d.output_tensor];
-    const int in_w = int(in.w), in_h = int(in.h), out_w = int(out.w), out_h = int(out.h), classes = int(out.c);
-    add("cnn model", model_bytes(model), "weights and prepared copies of " + model_path);
+    add("cnn model", model.bytes(), "weights and prepared copies of " + model_path);
     EF_ASSIGN_OR_RETURN(nn::MemoryPlan arena, nn::plan_memory(model));
     add("cnn arena", std::max<size_t>(arena.total_bytes, Arena::kMaxAlign),
         "activations, liveness-planned (nn/planner.h), " + std::to_string(d.layers.size()) + " layers");
-    add("cnn packed weights", packed_weight_bytes(model), "convolution weights in this CPU's kernel layout");
-    // semantic/segmenter.h buffer_bytes(): resampled frame (colour + depth), depth-only frame, float
-    // input (4 channels), probabilities, class ids.
-    const size_t in_px = px(in_w, in_h), out_px = px(out_w, out_h);
-    add("segmenter buffers",
-        in_px * (sizeof(Rgb8) + 2 * sizeof(float)) + in_px * 4 * sizeof(float) +
-            out_px * static_cast<size_t>(classes) * sizeof(float) + out_px,
-        "input " + size_text(in_w, in_h) + ", output " + size_text(out_w, out_h) + " x " + std::to_string(classes) +
-            " classes");
-    // semantic/label_fusion.h: observations (16 bytes per CNN pixel), column table, pair list.
-    add("label fusion",
-        out_px * semantic::kLabelBytes + static_cast<size_t>(w) * kLabelFusionIndexScale * sizeof(int32_t) +
-            px(w, h) * kLabelFusionIndexScale * kLabelFusionIndexScale * sizeof(kernels::LabelUpdatePair),
-        "16 bytes per CNN pixel + 16 pairs x 8 bytes per working pixel");
-    cnn_result = out_px * static_cast<size_t>(classes) * sizeof(float) + px(w, h);
-    add("label rendering", px(w, h), "the map's labels, " + size_text(w, h) + " x 1 byte");
-    add("map.ply class columns", cap * (sizeof(uint8_t) + sizeof(float)), "5 bytes (class id, probability) x capacity");
-    if (!config.labels_final_out.empty()) {
-      // pipeline/final_labels.h, after the run: a source frame, a working frame, a CNN result,
-      // a predictor of the whole map (its size does not depend on the time window it drops) and the
-      // rendered image, beside everything the run holds.
+    add("cnn packed weights", nn::Executor::packed_bytes_for(model), "convolution weights in this CPU's kernel layout");
+    add("segmenter buffers", semantic::Segmenter::buffer_bytes_for(model),
+        "input " + size_text(int(in.w), int(in.h)) + ", output " + size_text(int(out.w), int(out.h)) + " x " +
+            std::to_string(out.c) + " classes");
+    const SemanticsOptions sem = semantics_options(config);
+    semantic::LabelFusionOptions fusion = sem.fusion;
+    fusion.working_width = w;
+    fusion.working_height = h;
+    fusion.cnn_width = int(out.w);
+    fusion.cnn_height = int(out.h);
+    add("label fusion", semantic::LabelFusion::bytes_for(fusion),
+        "16 bytes per CNN pixel + a pair per index cell at the largest scale (" +
+            std::to_string(slam::kMaxIndexScale) + "x)");
+    cnn_result = CnnResult::bytes_for(int(out.w), int(out.h), int(out.c), w, h);
+    add("label rendering", RunSemantics::rendering_bytes_for(w, h), "the map's labels, " + size_text(w, h) + " x 1 byte");
+    add("map.ply class columns", RunSemantics::class_column_bytes_for(sem.pool_capacity),
+        "5 bytes (class id, probability) x capacity");
+    if (!config.labels.final_out.empty()) {
       add("final label pass",
-          px(src.w, src.h) * kFrameBytesPerPixel + px(w, h) * kFrameBytesPerPixel +
-              out_px * static_cast<size_t>(classes) * sizeof(float) + px(w, h) +
-              slam::ModelPredictor::bytes_for(w, h, levels, pred) + px(w, h),
-          "after the run: frames at " + size_text(src.w, src.h) + " and " + size_text(w, h) +
+          FinalLabelBuffers::bytes_for(config.run, probe.width, probe.height, probe.has_labels,
+                                       slam::ModelPredictor::bytes_for(w, h, levels, slam.prediction), cnn_result),
+          "after the run: frames at " + size_text(probe.width, probe.height) + " and " + size_text(w, h) +
               ", a CNN result, a predictor of the whole map, the rendering");
     }
-    if (config.crf_every > 0 || config.crf_final) {
-      // semantic/dense_crf.h: capacity x kBytesPerSurfel + lattice vertices x kBytesPerVertex, where
-      // the vertex part is two lattices (PermutohedralLattice::create: points, vertices and one spare
-      // value row) and two splat buffers of PermutohedralLattice::scratch_floats() (the hash table).
-      using semantic::PermutohedralLattice;
-      const semantic::DenseCrfOptions co = run_crf_options(config);
-      const int64_t vertices = co.lattice_vertices();
-      const size_t lattice = cap * PermutohedralLattice::kBytesPerPoint +
-                             static_cast<size_t>(vertices) * PermutohedralLattice::kBytesPerVertex +
-                             PermutohedralLattice::kValues * sizeof(float);
-      const size_t scratch = PermutohedralLattice::scratch_floats(vertices) * sizeof(float);
-      const size_t per_surfel = PermutohedralLattice::kValues * sizeof(uint16_t) + sizeof(uint32_t);  // Q, order
-      add("dense crf", 2 * lattice + 2 * scratch + cap * per_surfel,
-          std::to_string(cap) + " surfels x " + std::to_string(semantic::DenseCrf::kBytesPerSurfel) + " + " +
-              std::to_string(vertices) + " lattice vertices x about " +
+    if (sem.crf.on()) {
+      add("dense crf", semantic::DenseCrf::bytes_for(sem.dense_crf),
+          std::to_string(sem.dense_crf.capacity) + " surfels x " + std::to_string(semantic::DenseCrf::kBytesPerSurfel) +
+              " + " + std::to_string(sem.dense_crf.lattice_vertices()) + " lattice vertices x about " +
               std::to_string(semantic::DenseCrf::kBytesPerVertex) + " (semantic/dense_crf.h)");
     }
   }
 
-  {  // Prepared frames (pipeline/front_stage.h): per slot the working frame, its preprocessor
-     // and, with labels, the CNN's probabilities and class ids. threads = 1 uses one slot.
-    const size_t slots = config.threads == 1 ? 1 : static_cast<size_t>(config.prepared_slots);
-    add("prepared frames", slots * (px(w, h) * kFrameBytesPerPixel + preprocessor_bytes + cnn_result),
-        std::to_string(slots) + " slots x (working frame " + size_text(w, h) + " + pyramids" +
-            (config.labels ? " + CNN result" : "") + ")");
-  }
+  // Prepared frames (pipeline/front_stage.h): per slot the working frame, its preprocessor and,
+  // with labels, the CNN's result.
+  const int slots = config.pipeline.slots();
+  add("prepared frames",
+      size_t(slots) * PreparedFrame::bytes_for(w, h, probe.has_labels, slam::Preprocessor::bytes_for(w, h, slam.preprocess),
+                                               cnn_result),
+      std::to_string(slots) + " slots x (working frame " + size_text(w, h) + " + pyramids" +
+          (labels ? " + CNN result" : "") + ")");
 
   for (const MemoryPart& p : plan.parts) plan.total_bytes += p.bytes;
-  plan.budget_bytes = static_cast<size_t>(config.memory_budget_mb) * 1'000'000;
+  plan.budget_bytes = static_cast<size_t>(config.memory.budget_mb) * 1'000'000;
   return plan;
+}
+
+Result<MemoryPlan> check_and_plan(const RunConfig& config, const SourceProbe& probe) {
+  EF_RETURN_IF_ERROR(config.validate());
+  EF_RETURN_IF_ERROR(check_run(config, probe));
+  return plan_memory(config, probe);
 }
 
 Status check_memory_budget(const RunConfig& config) {
@@ -253,7 +195,7 @@ Status check_memory_budget(const MemoryPlan& plan, const RunConfig& config) {
     parts += (i ? ", " : "") + largest[i].name + " " + mb_text(largest[i].bytes) + " MB";
   return error(ErrorCode::kResourceExhausted,
                "memory plan: " + mb_text(plan.total_bytes) + " MB exceeds the budget of " +
-                   std::to_string(config.memory_budget_mb) + " MB (memory.budget_mb); largest parts: " + parts +
+                   std::to_string(config.memory.budget_mb) + " MB (memory.budget_mb); largest parts: " + parts +
                    ". Lower mapping.surfel_capacity (or the resolution, or turn the CRF off) or raise "
                    "memory.budget_mb; `edgefusion plan` with the same options lists every part");
 }

@@ -1,90 +1,169 @@
-// Options of `edgefusion run` (and `edgefusion plan`), from defaults, then an optional YAML
-// configuration file, then the command line (each later one overrides the earlier).
+// The configuration of `edgefusion run` (and `edgefusion plan`): one options struct per part of the
+// run, each with its own table of user-facing keys (core/options.h), bound here into sections:
 //
-// The file is YAML (read with yaml-cpp). Options sit at the top level or in sections; every
-// section key also has its older flat name, so both of these set the same option:
+//   (top level)  RunOptions                     source, resolution, frames, out, progress, map, realtime
+//   mapping      slam::SurfelPoolOptions,       surfel_capacity; icp_weight, rgb_weight,
+//                slam::TrackerOptions,          rgb_boost_condition, rgb_boost_max;
+//                slam::SurfelSlamOptions,       constant_velocity_guess, associate_at_tracked_pose;
+//                slam::PreprocessOptions,       depth_cutoff_m; index_map_scale
+//                slam::PredictionOptions
+//   labels       LabelOptions,                  enabled, model, out, out_every, final_out;
+//                semantic::LabelFusionOptions   every, visibility
+//   crf          CrfOptions,                    every, final;
+//                semantic::DenseCrfOptions      iterations
+//   pipeline     PipelineOptions                threads, prepared_slots, capture_slots, *_cpu
+//   memory       MemoryOptions                  budget_mb
+//   gpio         GpioLineConfig (led_, button_), chip, line, active_low; debounce_ms, optional
+//                GpioOptions
 //
-//   mapping: {surfel_capacity: 500000}        surfel_capacity: 500000
-//   labels: {every: 5}                        label_every: 5
+// Every key, its flat name, its command-line flag, unit, range, default and help come from those
+// tables (config_keys()); adding an option is a row in its struct's table and the code that uses
+// it. The YAML file and the command line are read in firmware_app/config_file.h.
 //
-// RunConfig::describe() prints every option with its unit and default as a complete file that reads
-// back to the same configuration (`edgefusion plan --help` shows it for the defaults).
-//
-// A URI such as `synthetic:` or `openni2:` ends in ':', which YAML reads as a nested key: the reader
-// quotes such a plain value on a `key: value` line itself (inside `{ }`, write it in quotes).
-//
-// Errors name the file, the line, the key (as written: `crf_iterations`, or the section path
-// `crf.iterations`) and the bad value. Unknown keys, a key given twice and YAML syntax errors are
-// errors too.
+// RunConfig::validate() holds everything that can be known wrong before a run starts: each struct's
+// own validate() (ranges from its table, and its rules between fields), the rules between the parts
+// of the run, and the machine (pinned cores that do not exist). check_run() adds the source (a live
+// camera cannot be read twice). `run` and `plan` both call them, so `plan` refuses what `run` would.
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "core/options.h"
 #include "core/result.h"
 #include "platform/devices/gpio.h"
+#include "semantic/dense_crf.h"
+#include "semantic/label_fusion.h"
+#include "slam/surfel_slam.h"
+#include "sources/open_source.h"
 
 namespace ef::pipeline {
 
-struct RunConfig {
-  std::string source = "synthetic:";  // source URI (see `edgefusion --help`)
-  int width = 320;                    // working resolution, pixels (tracking and label fusion)
-  int height = 240;
-  int64_t max_frames = -1;            // frames to process; -1 = all the source has
-  std::string out_dir;                // output folder; required by `run`
-  bool progress = true;               // progress line on stderr
-  bool write_map = true;              // write map.ply at the end of the run
-  bool realtime = false;              // replays: pace frames by their timestamps (live sources are
-                                      // paced by the camera anyway); default as fast as possible
-  // Mapping (slam/surfel_slam.h), section `mapping`. Defaults are ElasticFusion's / SemanticFusion's.
-  int64_t surfel_capacity = 1'000'000;  // surfels in the pool, allocated at start-up (1..100,000,000)
-  double icp_weight = 10.0;             // tracking: relative weight of the ICP term (>= 0)
-  double rgb_weight = 0.25;             // tracking: relative weight of the photometric term (>= 0)
-  double rgb_boost_condition = 500.0;   // tracking: ICP condition number above which the RGB weight
-                                        // rises (0 = off, else > 1; slam::TrackerOptions)
-  double rgb_boost_max = 16.0;          // tracking: the most it rises, a factor on rgb_weight (>= 1)
-  bool constant_velocity_guess = true;   // tracking's guess: last pose x last motion (false: last pose)
-  float depth_cutoff_m = 8.0f;          // depths beyond this are ignored, metres (> 0)
-  int index_map_scale = 1;              // index map cells per working pixel along each axis (1..4)
-  bool associate_at_tracked_pose = true;  // fusion's index map at the tracked pose (false: the
-                                          // previous pose's; SurfelSlamOptions)
-  // Semantics (SemanticFusion), section `labels`: the CNN every N-th frame, Bayesian label fusion
-  // into the surfels, rendered label images.
-  bool labels = true;                   // segment and fuse labels; false = geometry only
-  std::string model;                    // .efm segmentation model; empty = the shipped model
-  int label_every = 10;                 // CNN + Bayesian update every N frames (>= 1; paper: 10)
-  std::string labels_out;               // folder for rendered class-id PNGs; empty = none
-  int labels_out_every = 10;            // write the rendering of every K-th frame (>= 1)
-  std::string labels_final_out;         // folder for the final map's labels rendered into every
-                                        // labels_out_every-th frame of a second reading of the
-                                        // recording (pipeline/final_labels.h); empty = none
-  bool label_visibility = true;         // fuse / render only surfels whose depth matches the measured
-                                        // depth (semantic/visibility.h); false = every index-map surfel
-  // Dense CRF over the map, section `crf`.
-  int crf_every = 0;                    // dense CRF over the map every M frames; 0 = off (paper: 500)
-  bool crf_final = false;               // one dense CRF over the map at the end of the run
-  int crf_iterations = 10;              // mean-field iterations per CRF run (1..100; paper: 10)
-  // Threads, section `pipeline` (pipeline/run_pipeline.h). The outputs are the same in every mode.
-  int threads = 2;          // 1: every step (front: read, resample, preprocess; the CNN; mapping)
-                            // takes its turn on one thread (deterministic order); 2: front and CNN on
-                            // one thread, mapping on another; 3: front, CNN and mapping each on its
-                            // own. A live camera always has its capture thread too.
-  int prepared_slots = 3;   // frames in flight between the steps (2..16); a step waits for the one
-                            // before it, so nothing is dropped there
-  int capture_slots = 4;    // live cameras: frames between the capture thread and the front step
-                            // (2..64); when full the oldest waiting frame is dropped and counted
-  int front_cpu = -1;       // CPU core each thread is pinned to (0..cores-1); -1 = not pinned
+// The run as a whole (top-level keys).
+struct RunOptions {
+  std::string source = "synthetic:";        // frame source URI (sources/open_source.h)
+  opt::ImageSize resolution{320, 240};      // working resolution of tracking and label fusion, pixels
+  int64_t frames = -1;                      // frames to process; -1 = all the source has
+  std::string out;                          // output folder; `run` needs it
+  bool progress = true;                     // progress line on stderr
+  bool map = true;                          // write map.ply at the end of the run
+  bool realtime = false;                    // replays paced by their timestamps (cameras pace themselves)
+
+  static const opt::Table<RunOptions>& table();
+  Status validate() const;
+};
+
+// Semantics (SemanticFusion) beyond the fusion itself: the network and the label images.
+struct LabelOptions {
+  bool enabled = true;          // segment and fuse labels; false = geometry only
+  std::string model;            // .efm segmentation model; empty = the shipped one (model_paths.h)
+  std::string out;              // folder for rendered class-id PNGs as frames arrive; empty = none
+  int out_every = 10;           // write every K-th frame's rendering (frames)
+  std::string final_out;        // folder for the finished map's labels rendered into every
+                                // out_every-th frame of a second reading (pipeline/final_labels.h)
+
+  static const opt::Table<LabelOptions>& table();
+  Status validate() const;
+};
+
+// When the dense CRF runs over the map (its own options: semantic::DenseCrfOptions).
+struct CrfOptions {
+  int every = 0;       // every M frames; 0 = off (the paper: 500)
+  bool final = false;  // once at the end of the run, before map.ply is written
+
+  static const opt::Table<CrfOptions>& table();
+  Status validate() const;
+  bool on() const { return every > 0 || final; }
+};
+
+// Threads of the pipeline (pipeline/run_pipeline.h). The outputs are the same in every mode.
+struct PipelineOptions {
+  // 1: every step (front: read, resample, preprocess; the CNN; mapping) takes its turn on one
+  // thread (deterministic order); 2: front and CNN on one thread, mapping on another; 3: front, CNN
+  // and mapping each on its own. A live camera always has its capture thread too.
+  int threads = 2;
+  int prepared_slots = 3;  // frames in flight between the steps; a step waits, nothing is dropped
+  int capture_slots = 4;   // live cameras: frames between capture and the front step; full: the
+                           // oldest waiting frame is dropped and counted
+  int front_cpu = -1;      // the core each thread is pinned to; -1 = not pinned
   int cnn_cpu = -1;
   int mapping_cpu = -1;
   int capture_cpu = -1;
-  // Fixed memory, section `memory` (pipeline/memory_plan.h).
-  // Front panel (platform/devices/gpio.h): status LED and start/stop button; none by default. The
-  // button is wired to ground (active low) unless the file says otherwise.
-  GpioOptions gpio;
-  int64_t memory_budget_mb = 256;       // a run refuses to start when its memory plan exceeds this,
-                                        // MB = 10^6 bytes (1..1,000,000)
 
+  static const opt::Table<PipelineOptions>& table();
+  Status validate() const;
+  // Slots of the ring between the steps: one when a single thread takes every step in turn.
+  int slots() const { return threads == 1 ? 1 : prepared_slots; }
 };
+
+// The fixed memory of a run (pipeline/memory_plan.h).
+struct MemoryOptions {
+  int64_t budget_mb = 256;  // a run refuses to start when its memory plan exceeds this, MB (10^6 bytes)
+
+  static const opt::Table<MemoryOptions>& table();
+  Status validate() const;
+};
+
+struct RunConfig {
+  RunOptions run;
+  slam::SurfelSlamOptions mapping;          // own_preprocessor is set by the mapping stage
+  LabelOptions labels;
+  semantic::LabelFusionOptions label_fusion;  // its image sizes are set by the semantics step
+  CrfOptions crf;
+  semantic::DenseCrfOptions dense_crf;      // its capacity and lattice come from the pool (crf_options_for_run)
+  PipelineOptions pipeline;
+  MemoryOptions memory;
+  GpioOptions gpio;                         // front panel: status LED, start/stop button
+
+  // Ok, or kInvalidArgument naming the key(s) and the value(s). `cores`: the cores this process may
+  // use (platform/cpu/thread_affinity.h); a pinned core not among them is an error naming every
+  // such key, what the machine has, and what to do.
+  Status validate() const;
+  Status validate(const std::vector<int>& cores) const;
+
+  // A complete YAML configuration file: every key in its section with its value, and its help,
+  // unit, range and default as a comment. Reading it back gives this configuration again. Empty
+  // paths (out, model, label folders) are written as commented-out keys.
+  std::string describe() const;
+};
+
+// The checks of the source against the configuration: a live camera cannot be read twice
+// (labels.final_out). With validate() and the memory plan, what `run` and `plan` check.
+Status check_run(const RunConfig& config, const SourceProbe& source);
+
+// The dense CRF's options for a run: config.dense_crf with the pool's capacity and a lattice sized
+// for a SurfelSlam map (the RunSemantics step and the memory plan both use it).
+semantic::DenseCrfOptions crf_options_for_run(const RunConfig& config);
+
+// One key of the configuration: a row of an options table bound to its place in a RunConfig.
+struct ConfigKey {
+  std::string path;  // "mapping.icp_weight": the section, then the row's name
+  std::string flat;  // the older top-level name, "" = none
+  std::string flag;  // the command-line flag, "" = none
+  std::string unit, help;
+  opt::Range range;
+  opt::Value::Kind kind = opt::Value::kInt;
+  std::function<opt::Value(const RunConfig&)> get;
+  // Sets the key from text; "" on success, else the complaint (the configuration is unchanged).
+  std::function<std::string(RunConfig&, const std::string&)> parse;
+  // A bool's flag: sets the opposite of its default.
+  std::function<void(RunConfig&)> set_flag;
+
+  std::string section() const;  // "mapping"; "" at the top level
+  std::string name() const;     // "icp_weight"
+  // "<help>, <unit>, <range>; default <default>".
+  std::string doc() const;
+};
+
+// Every key, section by section, in file order.
+const std::vector<ConfigKey>& config_keys();
+// The key a section path ("crf.iterations") or a flat name ("crf_iterations") names; nullptr if none.
+const ConfigKey* find_config_key(const std::string& key);
+// The sections, in file order ("mapping", "labels", ...).
+const std::vector<std::string>& config_sections();
+// Every key as a Markdown table (key, flat name, flag, default, unit and range, help): the README's.
+std::string config_keys_markdown();
 
 }  // namespace ef::pipeline

@@ -34,32 +34,26 @@ double peak_rss_bytes() {
 
 Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config, FrameSource& source,
                                                          StageStats& stats) {
-  for (const auto& [key, cpu] : {std::pair<const char*, int>{"pipeline.front_cpu", config.front_cpu},
-                                 {"pipeline.cnn_cpu", config.cnn_cpu},
-                                 {"pipeline.mapping_cpu", config.mapping_cpu},
-                                 {"pipeline.capture_cpu", config.capture_cpu}}) {
-    if (cpu < 0) continue;  // not pinned
-    if (const std::string why = cpu_core_missing(cpu); !why.empty())
-      return error(ErrorCode::kInvalidArgument, std::string(key) + " " + std::to_string(cpu) + ": " + why);
-  }
+  EF_RETURN_IF_ERROR(config.validate());
+  EF_RETURN_IF_ERROR(check_run(config, probe_of(source)));
   std::unique_ptr<RunPipeline> p(new RunPipeline(config, source, stats));
+  const std::string& out = config.run.out;
   std::error_code ec;
-  std::filesystem::create_directories(config.out_dir, ec);
-  if (ec)
-    return error(ErrorCode::kIoError, "cannot create output folder '" + config.out_dir + "': " + ec.message());
+  std::filesystem::create_directories(out, ec);
+  if (ec) return error(ErrorCode::kIoError, "cannot create output folder '" + out + "': " + ec.message());
 
   const SourceInfo& info = source.info();
-  const Intrinsics working = info.intrinsics.scaled_to(config.width, config.height);
-  if (config.labels) {
-    auto sem = RunSemantics::create(config, working, stats);
+  const Intrinsics working = info.intrinsics.scaled_to(config.run.resolution.width, config.run.resolution.height);
+  if (config.labels.enabled) {
+    auto sem = RunSemantics::create(semantics_options(config), working, stats);
     if (!sem.ok()) return sem.take_error();
     p->semantics_ = std::move(*sem);
   }
-  const std::string trajectory_path = (std::filesystem::path(config.out_dir) / "trajectory.txt").string();
-  auto mapping = MappingStage::create(config, working, stats, p->semantics_.get(), trajectory_path);
+  const std::string trajectory_path = (std::filesystem::path(out) / "trajectory.txt").string();
+  auto mapping = MappingStage::create(config.mapping, working, stats, p->semantics_.get(), trajectory_path);
   if (!mapping.ok()) return mapping.take_error();
   p->mapping_ = std::move(*mapping);
-  auto front = FrontStage::create(config, source, p->mapping_->slam(), p->semantics_.get());
+  auto front = FrontStage::create(config.run, config.pipeline, source, p->mapping_->slam(), p->semantics_.get());
   if (!front.ok()) return front.take_error();
   p->front_ = std::move(*front);
 
@@ -67,9 +61,9 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   Status slot_status;
   const auto init = [&](PreparedFrame& slot) {
     if (Status s = p->front_->allocate(slot); !s.ok() && slot_status.ok()) slot_status = s;
-    p->slot_bytes_ = slot.working.bytes() + (slot.pre ? slot.pre->bytes() : 0) + slot.cnn.bytes();
+    p->slot_bytes_ = slot.bytes();
   };
-  p->ring_ = std::make_unique<StageRing<PreparedFrame>>(config.threads == 1 ? 1 : config.prepared_slots, kStages, init);
+  p->ring_ = std::make_unique<StageRing<PreparedFrame>>(config.pipeline.slots(), kStages, init);
   if (!slot_status.ok()) return slot_status.error();
 
   p->c_ = CounterIds{stats.add_counter("camera_lost"),     stats.add_counter("corrupt_frames_dropped"),
@@ -149,25 +143,25 @@ void RunPipeline::segment_loop() {
 RunOutcome RunPipeline::run(RunObserver& observer) {
   RunOutcome outcome;
   const auto start = std::chrono::steady_clock::now();
-  pin_current_thread_or_warn(config_.mapping_cpu, "mapping");
+  pin_current_thread_or_warn(config_.pipeline.mapping_cpu, "mapping");
   front_->start_capture();
   StageRing<PreparedFrame>& ring = *ring_;
   std::thread front_thread, segment_thread;
-  if (config_.threads >= 2) {
+  if (config_.pipeline.threads >= 2) {
     front_thread = std::thread([this] {
-      pin_current_thread_or_warn(config_.front_cpu, "front stage");
-      front_loop(/*with_segment=*/config_.threads == 2);
+      pin_current_thread_or_warn(config_.pipeline.front_cpu, "front stage");
+      front_loop(/*with_segment=*/config_.pipeline.threads == 2);
     });
   }
-  if (config_.threads == 3) {
+  if (config_.pipeline.threads == 3) {
     segment_thread = std::thread([this] {
-      pin_current_thread_or_warn(config_.cnn_cpu, "CNN");
+      pin_current_thread_or_warn(config_.pipeline.cnn_cpu, "CNN");
       segment_loop();
     });
   }
   while (true) {
     check_stop(observer, outcome);
-    if (config_.threads == 1) {
+    if (config_.pipeline.threads == 1) {
       // Every step in turn on this thread, on the ring's one slot.
       PreparedFrame* slot = ring.acquire(kFront, kPoll);
       if (slot == nullptr || front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
@@ -202,7 +196,7 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
 
 OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   OutputFiles out;
-  const std::filesystem::path dir(config_.out_dir);
+  const std::filesystem::path dir(config_.run.out);
   out.trajectory = (dir / "trajectory.txt").string();
   out.map = (dir / "map.ply").string();
   out.stats = (dir / "stats.json").string();
@@ -213,18 +207,18 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   if (semantics_ != nullptr) {
     if (Status s = semantics_->finish(slam); !s.ok()) out.errors.push_back(s.error());
   }
-  if (config_.write_map) {
+  if (config_.run.map) {
     const std::string comment =
-        "edgefusion map of " + config_.source + ", " + std::to_string(outcome.frames) + " frames";
+        "edgefusion map of " + config_.run.source + ", " + std::to_string(outcome.frames) + " frames";
     SurfelCloudView cloud = slam::surfel_cloud_view(slam.pool());
     if (semantics_ != nullptr) semantics_->add_label_columns(slam.pool(), cloud);
     if (Status s = write_surfel_ply(out.map, cloud, comment); !s.ok()) out.errors.push_back(s.error());
     else out.wrote_map = true;
   }
   const std::vector<StatsExtraField> extra = {
-      {"width", static_cast<double>(config_.width)},
-      {"height", static_cast<double>(config_.height)},
-      {"threads", static_cast<double>(config_.threads)},
+      {"width", static_cast<double>(config_.run.resolution.width)},
+      {"height", static_cast<double>(config_.run.resolution.height)},
+      {"threads", static_cast<double>(config_.pipeline.threads)},
       {"surfels", static_cast<double>(slam.pool().size())},
       {"surfel_capacity", static_cast<double>(slam.pool().capacity())},
       {"surfel_pool_bytes", static_cast<double>(slam.pool_bytes())},
@@ -241,8 +235,8 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
 Result<FinalLabelCounts> RunPipeline::render_final_labels(FrameSource& replay) {
   if (semantics_ == nullptr)
     return error(ErrorCode::kInvalidArgument, "--labels-final-out needs labels: drop --no-labels");
-  const std::string trajectory = (std::filesystem::path(config_.out_dir) / "trajectory.txt").string();
-  return pipeline::render_final_labels(config_, replay, trajectory, mapping_->slam(), *semantics_);
+  const std::string trajectory = (std::filesystem::path(config_.run.out) / "trajectory.txt").string();
+  return pipeline::render_final_labels(config_.run, config_.labels, replay, trajectory, mapping_->slam(), *semantics_);
 }
 
 }  // namespace ef::pipeline

@@ -1,6 +1,6 @@
 // The pipeline of `edgefusion run`: from a frame source to trajectory.txt, map.ply and stats.json.
 //
-//   capture thread   live cameras only: source -> capture ring (config.capture_slots, drop-oldest,
+//   capture thread   live cameras only: source -> capture ring (pipeline.capture_slots, drop-oldest,
 //                    counted as frames_dropped_overload); a camera is never held up by mapping
 //   front            next frame -> resample -> preprocess (pipeline/front_stage.h)
 //   segment          the CNN every label_every-th frame, into the frame's slot
@@ -9,9 +9,9 @@
 //                    progress line) and its stop requests (signals, the button)
 //   outputs          write_outputs(): trajectory closed, final CRF, map.ply, stats.json
 //
-// The three steps share a StageRing (core/stage_ring.h) of config.prepared_slots PreparedFrame
+// The three steps share a StageRing (core/stage_ring.h) of pipeline.prepared_slots PreparedFrame
 // slots, which every frame passes through in order; a step waits for its predecessor, nothing is
-// dropped after capture. config.threads says how the steps map onto threads:
+// dropped after capture. pipeline.threads says how the steps map onto threads:
 //   1  front, segment and mapping take turns on the calling thread (one slot; deterministic)
 //   2  front + segment on one thread, mapping on the calling thread (the default)
 //   3  front, segment and mapping each on a thread (a board with cores to spare: the CNN's time
@@ -75,9 +75,10 @@ struct OutputFiles {
 
 class RunPipeline {
  public:
-  // source: borrowed, must outlive the pipeline. Creates config.out_dir and the trajectory file,
-  // the SLAM, the semantics (config.labels), the slots and the rings; registers every stage and
-  // counter in `stats` (borrowed). Errors: the folder's, the model's, the options'.
+  // source: borrowed, must outlive the pipeline. Checks the configuration (RunConfig::validate,
+  // check_run), then creates the output folder and the trajectory file, the SLAM, the semantics
+  // (labels.enabled), the slots and the rings; registers every stage and counter in `stats`
+  // (borrowed). Errors: the configuration's, the folder's, the model's.
   static Result<std::unique_ptr<RunPipeline>> create(const RunConfig& config, FrameSource& source, StageStats& stats);
   ~RunPipeline();
   RunPipeline(const RunPipeline&) = delete;
@@ -90,7 +91,7 @@ class RunPipeline {
   // Every output is attempted even when another failed.
   OutputFiles write_outputs(const RunOutcome& outcome);
   // After write_outputs(): the final map's labels in every labels_out_every-th frame of `replay`, the
-  // same recording opened again, into config.labels_final_out (pipeline/final_labels.h).
+  // same recording opened again, into labels.final_out (pipeline/final_labels.h).
   // Errors: a run without labels, and the pass's (they name the file or the frame).
   Result<FinalLabelCounts> render_final_labels(FrameSource& replay);
 

@@ -13,17 +13,26 @@
 
 namespace ef::pipeline {
 
-semantic::DenseCrfOptions run_crf_options(const RunConfig& config) {
-  semantic::DenseCrfOptions co;
-  co.capacity = config.surfel_capacity;
-  co.iterations = config.crf_iterations;
-  // Lattice vertices per surfel of capacity. A SurfelSlam map needs more than the CRF's default
-  // (0.3, measured on noise-free sampled surfaces): on the synthetic seed-5001 loop (370k surfels
-  // after 300 frames) the spatial kernel's lattice had 1.13 vertices per surfel (noisy normals
-  // spread it) and the bilateral one 0.80. 1.25 leaves none out there; the cost is
-  // DenseCrf::kBytesPerVertex per vertex (docs/architecture.md, memory budget).
-  co.max_lattice_vertices = config.surfel_capacity * 5 / 4;
-  return co;
+SemanticsOptions semantics_options(const RunConfig& config) {
+  SemanticsOptions o;
+  o.labels = config.labels;
+  o.fusion = config.label_fusion;
+  o.crf = config.crf;
+  o.dense_crf = crf_options_for_run(config);
+  o.pool_capacity = config.mapping.pool.capacity;
+  return o;
+}
+
+std::string RunSemantics::model_path(const LabelOptions& labels) {
+  return labels.model.empty() ? default_model_path() : labels.model;
+}
+
+std::size_t RunSemantics::rendering_bytes_for(int working_width, int working_height) {
+  return std::size_t(working_width) * std::size_t(working_height);
+}
+
+std::size_t RunSemantics::class_column_bytes_for(int64_t pool_capacity) {
+  return std::size_t(pool_capacity) * (sizeof(uint8_t) + sizeof(float));
 }
 
 std::string label_image_path(const std::string& dir, const Frame& frame) {
@@ -33,12 +42,12 @@ std::string label_image_path(const std::string& dir, const Frame& frame) {
   return (std::filesystem::path(dir) / (name + ".png")).string();
 }
 
-Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& config, const Intrinsics& working,
+Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOptions& options, const Intrinsics& working,
                                                            StageStats& stats) {
   std::unique_ptr<RunSemantics> s(new RunSemantics());
-  s->config_ = config;
-  const bool default_model = config.model.empty();
-  s->model_path_ = default_model ? default_model_path() : config.model;
+  s->options_ = options;
+  const bool default_model = options.labels.model.empty();
+  s->model_path_ = model_path(options.labels);
   EF_RETURN_IF_ERROR(check_model_file(s->model_path_, default_model));
   auto seg = semantic::Segmenter::create(s->model_path_);
   if (!seg.ok()) return seg.take_error();
@@ -50,8 +59,7 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& conf
                                               std::to_string(semantic::kLabelClasses) +
                                               " (unknown + the 13 NYUv2 classes)");
 
-  semantic::LabelFusionOptions fo;
-  fo.update_every_n_frames = config.label_every;
+  semantic::LabelFusionOptions fo = options.fusion;
   fo.working_width = working.width;
   fo.working_height = working.height;
   fo.cnn_width = s->segmenter_->output_width();
@@ -60,18 +68,17 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& conf
   if (!fusion.ok()) return fusion.take_error();
   s->fusion_ = std::make_unique<semantic::LabelFusion>(std::move(*fusion));
 
-  if (config.crf_every > 0 || config.crf_final) {
-    const semantic::DenseCrfOptions co = run_crf_options(config);
-    auto crf = semantic::DenseCrf::create(co);
+  if (options.crf.on()) {
+    auto crf = semantic::DenseCrf::create(options.dense_crf);
     if (!crf.ok()) return crf.take_error();
     s->crf_ = std::make_unique<semantic::DenseCrf>(std::move(*crf));
   }
 
   s->rendered_.allocate(working.width, working.height);
-  s->class_id_.assign(static_cast<std::size_t>(config.surfel_capacity), 0);
-  s->class_prob_.assign(static_cast<std::size_t>(config.surfel_capacity), 0.0f);
+  s->class_id_.assign(static_cast<std::size_t>(options.pool_capacity), 0);
+  s->class_prob_.assign(static_cast<std::size_t>(options.pool_capacity), 0.0f);
 
-  for (const std::string& dir : {config.labels_out, config.labels_final_out}) {
+  for (const std::string& dir : {options.labels.out, options.labels.final_out}) {
     if (dir.empty()) continue;
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
@@ -79,10 +86,10 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const RunConfig& conf
   }
 
   s->stats_ = &stats;
-  s->st_segment_ = stats.add_stage("segment");
-  s->st_fuse_ = stats.add_stage("label_fuse");
-  s->st_render_ = stats.add_stage("label_render");
-  s->st_crf_ = stats.add_stage("crf");
+  s->st_segment_ = stats.add_stage(kStageNames[0]);
+  s->st_fuse_ = stats.add_stage(kStageNames[1]);
+  s->st_render_ = stats.add_stage(kStageNames[2]);
+  s->st_crf_ = stats.add_stage(kStageNames[3]);
   s->c_cnn_frames_ = stats.add_counter("cnn_frames");
   s->c_surfel_updates_ = stats.add_counter("surfel_label_updates");
   s->c_hidden_ = stats.add_counter("label_cells_hidden");
@@ -97,20 +104,20 @@ std::string RunSemantics::describe() const {
   std::ostringstream o;
   o << "model " << model_path_ << " (" << segmenter_->input_width() << "x" << segmenter_->input_height() << " -> "
     << segmenter_->num_classes() << " classes at " << segmenter_->output_width() << "x"
-    << segmenter_->output_height() << "), labels every " << config_.label_every << " frames, CRF ";
+    << segmenter_->output_height() << "), labels every " << options_.fusion.update_every_n_frames << " frames, CRF ";
   if (crf_ == nullptr) o << "off";
   else {
-    if (config_.crf_every > 0) o << "every " << config_.crf_every << " frames";
-    if (config_.crf_final) o << (config_.crf_every > 0 ? " and " : "") << "at the end";
-    o << " (" << config_.crf_iterations << " iterations)";
+    if (options_.crf.every > 0) o << "every " << options_.crf.every << " frames";
+    if (options_.crf.final) o << (options_.crf.every > 0 ? " and " : "") << "at the end";
+    o << " (" << options_.dense_crf.iterations << " iterations)";
   }
-  if (!config_.labels_out.empty())
-    o << ", label images every " << config_.labels_out_every << " frames into " << config_.labels_out;
+  if (!options_.labels.out.empty())
+    o << ", label images every " << options_.labels.out_every << " frames into " << options_.labels.out;
   return o.str();
 }
 
 bool RunSemantics::cnn_due(int64_t frame_number) const {
-  return fusion_->due(frame_number) || (!config_.labels_out.empty() && frame_number % config_.labels_out_every == 0);
+  return fusion_->due(frame_number) || (!options_.labels.out.empty() && frame_number % options_.labels.out_every == 0);
 }
 
 void RunSemantics::allocate(CnnResult& out) const {
@@ -139,7 +146,7 @@ Status RunSemantics::segment(const Frame& working, CnnResult& out) {
 Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, const CnnResult& cnn,
                               const slam::SlamFrameResult& result, slam::SurfelSlam& slam) {
   const bool fuse_now = !result.lost && fusion_->due(frame_number);
-  const bool write_now = !config_.labels_out.empty() && frame_number % config_.labels_out_every == 0;
+  const bool write_now = !options_.labels.out.empty() && frame_number % options_.labels.out_every == 0;
   if ((fuse_now || write_now) && !cnn.valid)
     return error(ErrorCode::kInvalidArgument,
                  "labels: frame " + std::to_string(frame_number) + " needs the CNN's result and has none");
@@ -150,13 +157,13 @@ Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, const 
   if (fuse_now) {
     ScopedStageTimer t(*stats_, st_fuse_);
     auto counts = fusion_->fuse(slam.predictor().index_map(), cnn.view(), slam.pool_for_labels(),
-                                config_.label_visibility ? working.depth.view() : ImageView<const float>());
+                                visible_depth(working.depth.view()));
     if (!counts.ok()) return counts.take_error();
     stats_->increment(c_surfel_updates_, static_cast<uint64_t>(counts->surfels_updated));
     stats_->increment(c_hidden_, static_cast<uint64_t>(counts->hidden_skipped));
     stats_->increment(c_no_depth_, static_cast<uint64_t>(counts->no_depth_skipped));
   }
-  if (crf_ != nullptr && config_.crf_every > 0 && frame_number > 0 && frame_number % config_.crf_every == 0) {
+  if (crf_ != nullptr && options_.crf.every > 0 && frame_number > 0 && frame_number % options_.crf.every == 0) {
     EF_RETURN_IF_ERROR(run_crf(slam));
   }
   if (write_now) EF_RETURN_IF_ERROR(write_rendering(working, cnn, result, slam));
@@ -187,16 +194,16 @@ Status RunSemantics::write_rendering(const Frame& working, const CnnResult& cnn,
     rendered_.copy_from(cnn.labels.view());
   } else {
     auto r = semantic::render_labels(slam.predictor(), slam.pool(), cnn.labels.view(), rendered_.view(),
-                                     config_.label_visibility ? working.depth.view() : ImageView<const float>());
+                                     visible_depth(working.depth.view()));
     if (!r.ok()) return r.take_error();
   }
-  EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(config_.labels_out, working), rendered_.view()));
+  EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(options_.labels.out, working), rendered_.view()));
   stats_->increment(c_label_images_);
   return Status::success();
 }
 
 Status RunSemantics::finish(slam::SurfelSlam& slam) {
-  if (crf_ != nullptr && config_.crf_final && last_crf_frame_ != slam.frames()) return run_crf(slam);
+  if (crf_ != nullptr && options_.crf.final && last_crf_frame_ != slam.frames()) return run_crf(slam);
   return Status::success();
 }
 

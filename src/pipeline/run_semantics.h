@@ -38,9 +38,15 @@
 
 namespace ef::pipeline {
 
-// The dense CRF's options for a run of `config` (capacity = the pool's, the lattice sized for a
-// SurfelSlam map): shared by RunSemantics and the memory plan (memory_plan.h).
-semantic::DenseCrfOptions run_crf_options(const RunConfig& config);
+// What the semantics step takes of a run's configuration (semantics_options(config)).
+struct SemanticsOptions {
+  LabelOptions labels;                  // the network and the label images
+  semantic::LabelFusionOptions fusion;  // its image sizes are set by create()
+  CrfOptions crf;                       // when the dense CRF runs
+  semantic::DenseCrfOptions dense_crf;  // sized for the pool (crf_options_for_run)
+  int64_t pool_capacity = 0;            // surfels: map.ply's class columns
+};
+SemanticsOptions semantics_options(const RunConfig& config);
 
 // DIR/<frame name>.png, the label image of `frame` (its index, 6 digits, where it has no name): the
 // names `edgefusion convert --to tum:` gives its labels, so `edgefusion eval labels` pairs them.
@@ -56,15 +62,30 @@ struct CnnResult {
   semantic::ProbabilityView view() const { return {probabilities.data(), height, width, classes}; }
   // Bytes of the probabilities and the class ids (what allocate() sized).
   std::size_t bytes() const { return probabilities.size() * sizeof(float) + labels.size(); }
+  // What RunSemantics::allocate() sizes for a CNN output of width x height x classes and a working
+  // image of working_width x working_height.
+  static std::size_t bytes_for(int width, int height, int classes, int working_width, int working_height) {
+    return std::size_t(width) * std::size_t(height) * std::size_t(classes) * sizeof(float) +
+           std::size_t(working_width) * std::size_t(working_height);
+  }
 };
 
 class RunSemantics {
  public:
-  // Loads the model (config.model or the shipped one), sizes every buffer for `working` and a pool
-  // of config.surfel_capacity surfels, registers its stages and counters in `stats`, and creates
-  // config.labels_out. Errors name the model file or the folder.
-  static Result<std::unique_ptr<RunSemantics>> create(const RunConfig& config, const Intrinsics& working,
+  // The stages it records into StageStats (segment, label_fuse, label_render, crf).
+  static constexpr const char* kStageNames[] = {"segment", "label_fuse", "label_render", "crf"};
+
+  // Loads the model (options.labels.model or the shipped one), sizes every buffer for `working`
+  // and a pool of options.pool_capacity surfels, registers its stages and counters in `stats`, and
+  // creates the label folders. Errors name the model file or the folder.
+  static Result<std::unique_ptr<RunSemantics>> create(const SemanticsOptions& options, const Intrinsics& working,
                                                       StageStats& stats);
+  // The model a run of `labels` loads: labels.model, or the shipped one when it is empty.
+  static std::string model_path(const LabelOptions& labels);
+  // Bytes create() allocates besides the segmenter: the rendered image at the working size and
+  // map.ply's class columns (5 bytes per surfel of capacity).
+  static std::size_t rendering_bytes_for(int working_width, int working_height);
+  static std::size_t class_column_bytes_for(int64_t pool_capacity);
 
   // Segment step: whether the CNN runs on frame `frame_number` (0-based count of frames delivered):
   // a label update or a label image is due.
@@ -85,6 +106,10 @@ class RunSemantics {
 
   // "model edgefusion-seg.efm (160x120 -> 14 classes), labels every 10 frames, CRF off" for the log.
   std::string describe() const;
+  // The measured depth for the visibility test, or the empty view when it is off (LabelFusion).
+  ImageView<const float> visible_depth(ImageView<const float> depth) const { return fusion_->visible_depth(depth); }
+  const LabelOptions& labels() const { return options_.labels; }
+  const semantic::LabelFusion& fusion() const { return *fusion_; }
 
  private:
   RunSemantics() = default;
@@ -92,7 +117,7 @@ class RunSemantics {
                          slam::SurfelSlam& slam);
   Status run_crf(slam::SurfelSlam& slam);
 
-  RunConfig config_;
+  SemanticsOptions options_;
   std::string model_path_;
   std::unique_ptr<semantic::Segmenter> segmenter_;
   std::unique_ptr<semantic::LabelFusion> fusion_;

@@ -83,7 +83,16 @@ int64_t DenseCrfOptions::lattice_vertices() const {
   return derived < Lattice::kSimplex ? Lattice::kSimplex : derived;
 }
 
+const opt::Table<DenseCrfOptions>& DenseCrfOptions::table() {
+  static const opt::Table<DenseCrfOptions> t = {
+      {"iterations", "crf_iterations", "--crf-iterations", &DenseCrfOptions::iterations, "", opt::between(1, 100),
+       "mean-field iterations per CRF run (the paper's 10)"},
+  };
+  return t;
+}
+
 Status DenseCrfOptions::validate() const {
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "dense crf"));
   auto positive = [](float v) { return std::isfinite(v) && v > 0; };
   auto non_negative = [](float v) { return std::isfinite(v) && v >= 0; };
   if (!positive(bilateral_theta_position_m) || !positive(bilateral_theta_color) ||
@@ -93,9 +102,6 @@ Status DenseCrfOptions::validate() const {
   if (!non_negative(bilateral_weight) || !non_negative(spatial_weight))
     return error(ErrorCode::kInvalidArgument,
                  "dense crf: kernel weights must be finite and >= 0 (" + describe() + ")");
-  if (iterations < 1 || iterations > 1000)
-    return error(ErrorCode::kInvalidArgument,
-                 "dense crf: iterations " + std::to_string(iterations) + " must be in 1..1000");
   if (capacity < 1 || capacity > kMaxCapacity)
     return error(ErrorCode::kInvalidArgument, "dense crf: capacity " + std::to_string(capacity) +
                                                   " must be in 1.." + std::to_string(kMaxCapacity) + " surfels");
@@ -132,6 +138,12 @@ Result<DenseCrf> DenseCrf::create(const DenseCrfOptions& options) {
   crf.q_ = make_aligned_array<uint16_t>(std::size_t(options.capacity) * kV);
   crf.order_ = make_aligned_array<uint32_t>(std::size_t(options.capacity));
   return crf;
+}
+
+std::size_t DenseCrf::bytes_for(const DenseCrfOptions& options) {
+  const int64_t vertices = options.lattice_vertices();
+  return 2 * Lattice::bytes_for(options.capacity, vertices) + 2 * Lattice::scratch_floats(vertices) * sizeof(float) +
+         std::size_t(options.capacity) * (kV * sizeof(uint16_t) + sizeof(uint32_t));
 }
 
 std::size_t DenseCrf::bytes() const {

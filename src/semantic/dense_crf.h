@@ -46,6 +46,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/options.h"
 #include "core/result.h"
 #include "semantic/permutohedral_lattice.h"
 #include "slam/surfel_pool.h"
@@ -66,7 +67,7 @@ struct DenseCrfOptions {
   float spatial_theta_position_m = 0.05f;
   float spatial_theta_normal = 0.1f;
   float spatial_weight = 3.0f;
-  // Mean-field iterations per run (>= 1, at most 1000). Default 10 (the paper).
+  // Mean-field iterations per run (1..100: its table). Default 10 (the paper).
   int iterations = 10;
   // Most surfels one run handles (>= 1, at most 100,000,000 / 7): a pool holding more is an error.
   // Default 1,000,000 (the default pool). kBytesPerSurfel each.
@@ -85,6 +86,8 @@ struct DenseCrfOptions {
 
   // The vertex limit in force (max_lattice_vertices, or the derived default).
   int64_t lattice_vertices() const;
+  // The keys `run` offers (section crf): iterations.
+  static const opt::Table<DenseCrfOptions>& table();
   Status validate() const;
   std::string describe() const;
 };
@@ -126,6 +129,8 @@ class DenseCrf {
   const DenseCrfOptions& options() const { return options_; }
   // Bytes create() allocated.
   std::size_t bytes() const;
+  // Bytes create(options) allocates: two lattices, their two scratch buffers, Q and the order.
+  static std::size_t bytes_for(const DenseCrfOptions& options);
 
  private:
   DenseCrf() = default;

@@ -5,17 +5,25 @@
 namespace ef::semantic {
 
 namespace {
-constexpr int kMaxIndexScale = 4;  // slam/index_map.h
+using slam::kMaxIndexScale;
 constexpr int kMaxSide = 16384;
 
 // Nearest neighbour with pixel centres (the segmenter's rule): floor((u + 0.5) * to / from).
 int32_t nearest(int64_t u, int64_t from, int64_t to) { return static_cast<int32_t>(((2 * u + 1) * to) / (2 * from)); }
 }  // namespace
 
+const opt::Table<LabelFusionOptions>& LabelFusionOptions::table() {
+  static const opt::Table<LabelFusionOptions> t = {
+      {"every", "label_every", "--label-every", &LabelFusionOptions::update_every_n_frames, "frames",
+       opt::between(1, 1'000'000), "frames between CNN label updates (the paper's 10)"},
+      {"visibility", "label_visibility", "", &LabelFusionOptions::visibility_test, "", opt::any(),
+       "fuse and render only surfels at the measured depth; false = every index-map surfel"},
+  };
+  return t;
+}
+
 Status LabelFusionOptions::validate() const {
-  if (update_every_n_frames < 1)
-    return error(ErrorCode::kInvalidArgument,
-                 "label fusion: update_every_n_frames " + std::to_string(update_every_n_frames) + " must be >= 1");
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "label fusion"));
   for (int side : {working_width, working_height, cnn_width, cnn_height})
     if (side < 1 || side > kMaxSide)
       return error(ErrorCode::kInvalidArgument, "label fusion: image sides must be in 1..16384 (" + describe() + ")");
@@ -48,8 +56,16 @@ Result<LabelFusion> LabelFusion::create(const LabelFusionOptions& options) {
   return f;
 }
 
+std::size_t LabelFusion::bytes_for(const LabelFusionOptions& options) {
+  const std::size_t working = std::size_t(options.working_width) * std::size_t(options.working_height);
+  return std::size_t(options.cnn_width) * std::size_t(options.cnn_height) * kLabelBytes +
+         std::size_t(options.working_width) * kMaxIndexScale * sizeof(int32_t) +
+         working * kMaxIndexScale * kMaxIndexScale * sizeof(kernels::LabelUpdatePair);
+}
+
 Result<LabelFusionCounts> LabelFusion::fuse(const slam::IndexMap& index, const ProbabilityView& cnn,
-                                            slam::SurfelPool& pool, ImageView<const float> depth) {
+                                            slam::SurfelPool& pool, ImageView<const float> measured_depth) {
+  const ImageView<const float> depth = visible_depth(measured_depth);
   const int scale = index.scale;
   const int W = options_.working_width, H = options_.working_height;
   const int Wc = options_.cnn_width, Hc = options_.cnn_height;

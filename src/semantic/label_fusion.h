@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/image.h"
+#include "core/options.h"
 #include "core/result.h"
 #include "kernels/label_update.h"
 #include "semantic/segmenter.h"
@@ -35,7 +36,12 @@ struct LabelFusionOptions {
   // where its depth agrees with the measured depth of its working pixel; pixels without depth update
   // nothing. Default 3 cm + 3% of the depth.
   DepthGate visibility;
+  // false: no visibility test; every surfel of the index map takes the CNN's label (and a caller's
+  // rendering shows every index-map surfel: visible_depth()). Default true.
+  bool visibility_test = true;
 
+  // The keys `run` offers (section labels): every, visibility.
+  static const opt::Table<LabelFusionOptions>& table();
   Status validate() const;
   std::string describe() const;
 };
@@ -51,6 +57,19 @@ class LabelFusion {
   static Result<LabelFusion> create(const LabelFusionOptions& options = {});
 
   const LabelFusionOptions& options() const { return options_; }
+  // What create() allocates: 16 bytes per CNN pixel (observations), an int32 per index column at
+  // the largest scale, and a pair (8 bytes) per index cell at the largest scale.
+  static std::size_t bytes_for(const LabelFusionOptions& options);
+  // The same, read off the buffers.
+  std::size_t bytes() const {
+    return observations_.size() + cnn_x_of_index_x_.size() * sizeof(int32_t) +
+           pairs_.size() * sizeof(kernels::LabelUpdatePair);
+  }
+  // `depth` when the options ask for the visibility test, else the empty view: what fuse() and a
+  // rendering of the same labels (semantic/label_render.h) take.
+  ImageView<const float> visible_depth(ImageView<const float> depth) const {
+    return options_.visibility_test ? depth : ImageView<const float>();
+  }
   // True on the frames fuse() should run on: frame % update_every_n_frames == 0 (frame >= 0).
   bool due(int64_t frame) const { return frame % options_.update_every_n_frames == 0; }
 
@@ -58,7 +77,7 @@ class LabelFusion {
   // probabilities. Working pixel of index cell (x, y): (x / scale, y / scale); its CNN pixel by the
   // segmenter's nearest-neighbour rule: cnn_x = floor((u + 0.5) * W' / W), likewise y.
   // depth: the frame's measured depth at the working size (metres, 0 = none) for the visibility
-  // test, or empty to update every surfel the index map holds.
+  // test, or empty to update every surfel the index map holds (as with options.visibility_test false).
   // Errors (kInvalidArgument, the pool untouched): index map, CNN or depth sizes that differ from the
   // options, a class count other than 14, an id outside 0..pool.size()-1.
   Result<LabelFusionCounts> fuse(const slam::IndexMap& index, const ProbabilityView& cnn, slam::SurfelPool& pool,
@@ -70,8 +89,8 @@ class LabelFusion {
  private:
   LabelFusionOptions options_;
   std::vector<uint8_t> observations_;            // cnn_width * cnn_height * 16
-  std::vector<int32_t> cnn_x_of_index_x_;        // working_width * 4
-  std::vector<kernels::LabelUpdatePair> pairs_;  // working size * 16
+  std::vector<int32_t> cnn_x_of_index_x_;        // working_width * kMaxIndexScale
+  std::vector<kernels::LabelUpdatePair> pairs_;  // working size * kMaxIndexScale^2
 };
 
 }  // namespace ef::semantic

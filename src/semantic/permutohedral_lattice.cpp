@@ -80,10 +80,7 @@ std::size_t PermutohedralLattice::scratch_floats(int64_t max_vertices) {
   return rows > build ? rows : build;
 }
 
-std::size_t PermutohedralLattice::bytes() const {
-  return std::size_t(max_points_) * kBytesPerPoint + std::size_t(max_vertices_) * kBytesPerVertex +
-         V * sizeof(float);
-}
+std::size_t PermutohedralLattice::bytes() const { return bytes_for(max_points_, max_vertices_); }
 
 void PermutohedralLattice::begin(float* scratch) {
   points_ = 0;

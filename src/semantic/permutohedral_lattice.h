@@ -90,6 +90,11 @@ class PermutohedralLattice {
   static std::size_t scratch_floats(int64_t max_vertices);
   // Bytes create() allocates.
   std::size_t bytes() const;
+  // What create(max_points, max_vertices) allocates (points, vertices and one spare value row).
+  static std::size_t bytes_for(int64_t max_points, int64_t max_vertices) {
+    return std::size_t(max_points) * kBytesPerPoint + std::size_t(max_vertices) * kBytesPerVertex +
+           kValues * sizeof(float);
+  }
 
   // --- construction ---------------------------------------------------------------------------
   enum class AddResult {

@@ -78,6 +78,15 @@ Result<std::unique_ptr<Segmenter>> Segmenter::prepare(std::unique_ptr<Segmenter>
   return s;
 }
 
+std::size_t Segmenter::buffer_bytes_for(const nn::Model& model) {
+  const nn::ModelDesc& d = model.desc;
+  const nn::TensorDesc& in = d.tensors[d.input_tensor];
+  const nn::TensorDesc& out = d.tensors[d.output_tensor];
+  const std::size_t in_px = std::size_t(in.w) * std::size_t(in.h), out_px = std::size_t(out.w) * std::size_t(out.h);
+  return Frame::bytes_for(int(in.w), int(in.h), /*with_labels=*/false) + in_px * sizeof(float) +
+         in_px * kInputChannels * sizeof(float) + out_px * std::size_t(out.c) * sizeof(float) + out_px;
+}
+
 std::size_t Segmenter::buffer_bytes() const {
   const std::size_t in_px = std::size_t(in_w_) * std::size_t(in_h_);
   return in_px * (sizeof(Rgb8) + 2 * sizeof(float)) + input_.size() * sizeof(float) + probs_.size() * sizeof(float) +

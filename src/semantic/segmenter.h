@@ -111,6 +111,10 @@ class Segmenter {
   // Bytes this segmenter allocated besides the executor (resampled frame, input, probabilities,
   // labels); see docs/architecture.md, memory budget.
   std::size_t buffer_bytes() const;
+  // What create() allocates besides the executor for `model` (validated): the resampled frame
+  // (colour + depth) and a depth-only frame at the input size, the float input (4 channels), the
+  // probabilities and the class ids at the output size. The memory plan's "segmenter buffers".
+  static std::size_t buffer_bytes_for(const nn::Model& model);
 
  private:
   Segmenter() = default;

@@ -2,7 +2,7 @@
 // from the surfel pool and read by slam/surfel_fusion for data association (ElasticFusion, Whelan et
 // al. RSS 2015, section 3.2: surfels are rendered as single points into an index map `scale` times
 // finer than the input image along each axis, so that fusion finds up to scale^2 candidate surfels
-// per input pixel; ElasticFusion uses 4x, our default is 2x: model_prediction.h).
+// per input pixel; ElasticFusion uses 4x, our default is 1x: model_prediction.h).
 //
 // Grid: `intrinsics` are the working intrinsics scaled by `scale` with the half-pixel-centre
 // convention of Intrinsics::scaled_to, so working pixel (u, v) covers index pixels
@@ -30,6 +30,10 @@
 
 namespace ef::slam {
 
+// The finest index map: index pixels per working pixel along each axis (ElasticFusion's 4x). Every
+// buffer sized for any scale (label fusion's pair list) is sized for this one.
+inline constexpr int kMaxIndexScale = 4;
+
 // The surfel of an index pixel as fusion's gates see it.
 struct IndexSurface {
   float nx, ny, nz;  // unit normal, world frame
@@ -37,7 +41,7 @@ struct IndexSurface {
 };
 
 struct IndexMap {
-  int scale = 1;             // index pixels per working pixel along each axis (1..4)
+  int scale = 1;             // index pixels per working pixel along each axis (1..kMaxIndexScale)
   Intrinsics intrinsics;     // of the index grid
   SE3 T_world_cam;           // the camera pose the map was rendered at (camera to world)
   Image<int32_t> id;         // surfel id, -1 = none

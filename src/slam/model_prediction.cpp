@@ -20,7 +20,6 @@ namespace ef::slam {
 namespace {
 
 constexpr int kMinCoarsestSize = 8;  // pixels, both dimensions (as the Preprocessor and the Tracker)
-constexpr int kMaxIndexScale = 4;
 constexpr float kMaxSplatCapPx = 64.0f;
 // Surfels per block of the pass over the pool: a block's transformed columns (5 x 4 bytes x 256 =
 // 5 KiB, two blocks on the stack) and its discs (11 KiB) stay in L1 between the vectorised loops and
@@ -47,12 +46,19 @@ struct ModelPredictor::Pose {
   int32_t oldest_frame;  // surfels with last_seen < this are outside the active window
 };
 
+const opt::Table<PredictionOptions>& PredictionOptions::table() {
+  static const opt::Table<PredictionOptions> t = {
+      {"index_map_scale", "index_map_scale", "", &PredictionOptions::index_map_scale, "index cells per working pixel and axis",
+       opt::between(1, kMaxIndexScale), "4 = ElasticFusion's, slower for the same accuracy at 320x240 (docs/results.md)"},
+  };
+  return t;
+}
+
 Status PredictionOptions::validate() const {
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "prediction"));
   const auto bad = [](const std::string& field, const std::string& why) {
     return error(ErrorCode::kInvalidArgument, "PredictionOptions." + field + " " + why);
   };
-  if (index_map_scale < 1 || index_map_scale > kMaxIndexScale)
-    return bad("index_map_scale", std::to_string(index_map_scale) + " is outside 1..4");
   if (!(stable_confidence >= 0.0f) || !std::isfinite(stable_confidence))
     return bad("stable_confidence", "must be finite and >= 0");
   if (active_window_frames < 0) return bad("active_window_frames", "must be >= 0 (0 = no limit)");

@@ -58,6 +58,7 @@
 
 #include "core/image.h"
 #include "core/intrinsics.h"
+#include "core/options.h"
 #include "core/result.h"
 #include "core/se3.h"
 #include "slam/index_map.h"
@@ -118,6 +119,8 @@ struct PredictionOptions {
   // give over one pixel, z / (f tan(angle)). 5 deg as preprocessing's normal_min_grazing_deg.
   float normal_min_grazing_deg = 5.0f;
 
+  // The keys `run` offers (section mapping): index_map_scale.
+  static const opt::Table<PredictionOptions>& table();
   // An error naming the first field out of range.
   Status validate() const;
   // One line per field with its unit, for logs.

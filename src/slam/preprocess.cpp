@@ -39,10 +39,18 @@ inline int clamp_index(int i, int n) { return i < 0 ? 0 : (i >= n ? n - 1 : i); 
 
 }  // namespace
 
+const opt::Table<PreprocessOptions>& PreprocessOptions::table() {
+  static const opt::Table<PreprocessOptions> t = {
+      {"depth_cutoff_m", "depth_cutoff_m", "", &PreprocessOptions::depth_cutoff_m, "metres", opt::above(0),
+       "depths beyond are ignored"},
+  };
+  return t;
+}
+
 Status PreprocessOptions::validate() const {
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "preprocess options"));
   auto bad = [](const char* what) { return error(ErrorCode::kInvalidArgument, std::string("preprocess options: ") + what); };
   if (levels < 1 || levels > kMaxLevels) return bad("levels must be 1..6");
-  if (!(depth_cutoff_m > 0)) return bad("depth_cutoff_m must be > 0");
   if (bilateral_radius_px < 0 || bilateral_radius_px > 8) return bad("bilateral_radius_px must be 0..8");
   if (!(bilateral_sigma_space_px > 0)) return bad("bilateral_sigma_space_px must be > 0");
   // At most 1 m, so that the invalid-depth sentinel still gets a range weight of exactly 0.

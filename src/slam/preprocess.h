@@ -27,6 +27,7 @@
 #include "core/frame.h"
 #include "core/image.h"
 #include "core/intrinsics.h"
+#include "core/options.h"
 #include "core/result.h"
 
 namespace ef::slam {
@@ -59,6 +60,8 @@ struct PreprocessOptions {
   // discontinuity up to ~12 m on level 0 and ~3 m on level 2.
   float normal_min_grazing_deg = 5.0f;
 
+  // The keys `run` offers (section mapping): depth_cutoff_m.
+  static const opt::Table<PreprocessOptions>& table();
   // An error naming the first field out of range.
   Status validate() const;
   // One line per field with its unit, for logs.

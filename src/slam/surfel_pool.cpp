@@ -13,10 +13,16 @@ constexpr int64_t kMaxCapacity = 100'000'000;
 std::size_t round_up(std::size_t n) { return (n + kAlign - 1) & ~(kAlign - 1); }
 }  // namespace
 
+const opt::Table<SurfelPoolOptions>& SurfelPoolOptions::table() {
+  static const opt::Table<SurfelPoolOptions> t = {
+      {"surfel_capacity", "surfel_capacity", "--surfel-capacity", &SurfelPoolOptions::capacity, "surfels",
+       opt::between(1, double(kMaxCapacity)), "surfels in the map's pool, allocated at start-up (60 bytes each)"},
+  };
+  return t;
+}
+
 Status SurfelPoolOptions::validate() const {
-  if (capacity < 1 || capacity > kMaxCapacity)
-    return error(ErrorCode::kInvalidArgument,
-                 "surfel pool: capacity " + std::to_string(capacity) + " is outside 1..100000000");
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "surfel pool"));
   if (evict_unseen_frames < 1)
     return error(ErrorCode::kInvalidArgument,
                  "surfel pool: evict_unseen_frames " + std::to_string(evict_unseen_frames) + " must be >= 1");

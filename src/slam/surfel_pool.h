@@ -35,6 +35,7 @@
 #include <memory>
 #include <string>
 
+#include "core/options.h"
 #include "core/result.h"
 
 namespace ef::slam {
@@ -46,6 +47,8 @@ struct SurfelPoolOptions {
   // make room (frames, >= 1). Default 30 (about a second at 30 Hz).
   int32_t evict_unseen_frames = 30;
 
+  // The keys `run` offers (section mapping): surfel_capacity.
+  static const opt::Table<SurfelPoolOptions>& table();
   Status validate() const;
   std::string describe() const;
 };

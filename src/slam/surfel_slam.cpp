@@ -12,6 +12,18 @@ namespace {
 using Clock = SteadyClock;
 }  // namespace
 
+const opt::Table<SurfelSlamOptions>& SurfelSlamOptions::table() {
+  static const opt::Table<SurfelSlamOptions> t = {
+      {"constant_velocity_guess", "constant_velocity_guess", "", &SurfelSlamOptions::constant_velocity_guess, "",
+       opt::any(), "tracking starts each frame from the last pose times the last motion; false = from the last pose (ElasticFusion)"},
+      {"associate_at_tracked_pose", "associate_at_tracked_pose", "", &SurfelSlamOptions::associate_at_tracked_pose, "",
+       opt::any(),
+       "fusion associates each frame through an index map rendered at its tracked pose (ElasticFusion); false = the "
+       "previous pose's, one render less per frame but duplicate surfels wherever known surface enters the view"},
+  };
+  return t;
+}
+
 Status SurfelSlamOptions::validate() const {
   EF_RETURN_IF_ERROR(preprocess.validate());
   EF_RETURN_IF_ERROR(tracker.validate());

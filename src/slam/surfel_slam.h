@@ -73,6 +73,9 @@ struct SurfelSlamOptions {
   // thread); saves the pyramids' memory (Preprocessor::bytes(), 4.7 MB at 320x240).
   bool own_preprocessor = true;
 
+  // The keys `run` offers (section mapping): constant_velocity_guess, associate_at_tracked_pose.
+  // Those of the parts are in their own tables (PreprocessOptions::table(), ...).
+  static const opt::Table<SurfelSlamOptions>& table();
   Status validate() const;
   std::string describe() const;
 };

@@ -150,7 +150,23 @@ const char* track_lost_reason_name(TrackLostReason r) {
   return "?";
 }
 
+const opt::Table<TrackerOptions>& TrackerOptions::table() {
+  static const opt::Table<TrackerOptions> t = {
+      {"icp_weight", "icp_weight", "", &TrackerOptions::icp_weight, "", opt::at_least(0),
+       "tracking: weight of the ICP term"},
+      {"rgb_weight", "rgb_weight", "", &TrackerOptions::rgb_weight, "", opt::at_least(0),
+       "tracking: weight of the photometric term"},
+      {"rgb_boost_condition", "rgb_boost_condition", "", &TrackerOptions::rgb_boost_condition, "",
+       opt::above(1).or_value(0, "off"),
+       "tracking: the photometric weight rises where the ICP term's condition number exceeds this"},
+      {"rgb_boost_max", "rgb_boost_max", "", &TrackerOptions::rgb_boost_max, "", opt::at_least(1),
+       "tracking: the most the photometric weight rises there (a factor on rgb_weight)"},
+  };
+  return t;
+}
+
 Status TrackerOptions::validate() const {
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "tracker"));
   const auto bad = [](const char* field) {
     return error(ErrorCode::kInvalidArgument, std::string("TrackerOptions.") + field + " out of range");
   };
@@ -159,16 +175,12 @@ Status TrackerOptions::validate() const {
   if (!(stop_translation_m >= 0) || !(stop_rotation_rad >= 0)) return bad("stop_translation_m/stop_rotation_rad");
   if (so3_iterations < 0 || so3_iterations > 100) return bad("so3_iterations");
   if (so3_level < -1 || so3_level > kTrackerMaxLevels) return bad("so3_level");
-  if (!(icp_weight >= 0) || !std::isfinite(icp_weight)) return bad("icp_weight");
-  if (!(rgb_weight >= 0) || !std::isfinite(rgb_weight)) return bad("rgb_weight");
-  if (icp_weight == 0 && rgb_weight == 0) return bad("icp_weight and rgb_weight (both 0)");
+  if (icp_weight == 0 && rgb_weight == 0)
+    return error(ErrorCode::kInvalidArgument, "tracker: icp_weight and rgb_weight are both 0 (nothing to track with)");
   if (!finite_positive(icp_sigma_m)) return bad("icp_sigma_m");
   if (!(icp_depth_weight_ref_m > 0.4f && icp_depth_weight_ref_m < 100.0f)) return bad("icp_depth_weight_ref_m");
   if (!finite_positive(icp_max_distance_m)) return bad("icp_max_distance_m");
   if (!(icp_max_normal_angle_deg > 0 && icp_max_normal_angle_deg <= 90)) return bad("icp_max_normal_angle_deg");
-  if (!(rgb_boost_condition == 0 || (rgb_boost_condition > 1 && std::isfinite(rgb_boost_condition))))
-    return bad("rgb_boost_condition");
-  if (!(rgb_boost_max >= 1) || !std::isfinite(rgb_boost_max)) return bad("rgb_boost_max");
   if (!finite_positive(rgb_sigma_grey)) return bad("rgb_sigma_grey");
   if (!finite_positive(rgb_huber_k)) return bad("rgb_huber_k");
   if (!finite_positive(rgb_max_depth_diff_m)) return bad("rgb_max_depth_diff_m");

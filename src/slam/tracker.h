@@ -77,6 +77,7 @@
 
 #include "core/image.h"
 #include "core/intrinsics.h"
+#include "core/options.h"
 #include "core/result.h"
 #include "core/se3.h"
 
@@ -216,6 +217,8 @@ struct TrackerOptions {
   double lost_max_correction_m = 0.3;
   double lost_max_correction_deg = 20.0;
 
+  // The keys `run` offers (section mapping): icp_weight, rgb_weight, rgb_boost_condition, rgb_boost_max.
+  static const opt::Table<TrackerOptions>& table();
   // An error naming the first field out of range.
   Status validate() const;
   // One line per field with its unit, for logs.

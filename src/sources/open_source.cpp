@@ -29,6 +29,7 @@ SourceProbe probe_of(const FrameSource& source) {
   p.width = info.intrinsics.width;
   p.height = info.intrinsics.height;
   p.live = info.live;
+  p.has_labels = info.has_labels;
   p.frame_count = info.frame_count;
   return p;
 }

@@ -26,6 +26,7 @@ struct SourceProbe {
   int width = 0, height = 0;  // frame size, pixels
   bool size_assumed = false;  // a camera without size=: the 640x480 it is asked for by default
   bool live = false;          // a live camera (capture thread and ring), not a recording
+  bool has_labels = false;    // frames carry label images (synthetic rooms, TUM folders with labels/)
   int64_t frame_count = -1;   // frames of a recording; -1 when unknown (live)
 };
 

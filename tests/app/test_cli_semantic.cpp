@@ -182,20 +182,20 @@ TEST(FinalLabels, MatchesFramesToTrajectoryLinesByTimestamp) {
   const auto dir = test::scratch_dir("final-labels-match");
   const fs::path model = tiny_model(dir);
   RunConfig config;
-  config.source = "synthetic:bedroom?frames=6&size=160x120";
-  config.width = 160;
-  config.height = 120;
-  config.model = model.string();
-  config.surfel_capacity = 100000;
-  config.labels_out_every = 1;
-  config.labels_final_out = (dir / "final").string();
-  auto source = open_source(config.source);
+  config.run.source = "synthetic:bedroom?frames=6&size=160x120";
+  config.run.resolution.width = 160;
+  config.run.resolution.height = 120;
+  config.labels.model = model.string();
+  config.mapping.pool.capacity = 100000;
+  config.labels.out_every = 1;
+  config.labels.final_out = (dir / "final").string();
+  auto source = open_source(config.run.source);
   ASSERT_TRUE(source.ok());
   const Intrinsics working = (*source)->info().intrinsics.scaled_to(160, 120);
   StageStats stats;
-  auto semantics = RunSemantics::create(config, working, stats);
+  auto semantics = RunSemantics::create(semantics_options(config), working, stats);
   ASSERT_TRUE(semantics.ok()) << to_string(semantics.error());
-  auto slam = slam::SurfelSlam::create(working, slam_options(config));
+  auto slam = slam::SurfelSlam::create(working, MappingStage::slam_options(config.mapping));
   ASSERT_TRUE(slam.ok());
 
   // Frames 0..5: no line for frame 2, frame 4 marked lost.
@@ -218,9 +218,9 @@ TEST(FinalLabels, MatchesFramesToTrajectoryLinesByTimestamp) {
       out << line;
     }
   }
-  auto replay = open_source(config.source);
+  auto replay = open_source(config.run.source);
   ASSERT_TRUE(replay.ok());
-  auto counts = render_final_labels(config, **replay, trajectory.string(), *slam, **semantics);
+  auto counts = render_final_labels(config.run, config.labels, **replay, trajectory.string(), *slam, **semantics);
   ASSERT_TRUE(counts.ok()) << to_string(counts.error());
   EXPECT_EQ(counts->frames_read, 6);
   EXPECT_EQ(counts->images_written, 5);

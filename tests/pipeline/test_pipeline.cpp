@@ -83,14 +83,14 @@ class LoopSource : public FrameSource {
 
 pipeline::RunConfig small_run(const std::filesystem::path& dir, const std::string& model, int threads) {
   pipeline::RunConfig c;
-  c.width = 160;
-  c.height = 120;
-  c.surfel_capacity = 60'000;
-  c.model = model;
-  c.label_every = 5;
-  c.threads = threads;
-  c.progress = false;
-  c.out_dir = dir.string();
+  c.run.resolution.width = 160;
+  c.run.resolution.height = 120;
+  c.mapping.pool.capacity = 60'000;
+  c.labels.model = model;
+  c.label_fusion.update_every_n_frames = 5;
+  c.pipeline.threads = threads;
+  c.run.progress = false;
+  c.run.out = dir.string();
   return c;
 }
 
@@ -219,7 +219,7 @@ TEST(Pipeline, VanishingCameraLeavesCompleteOutputs) {
                       std::chrono::milliseconds(5));
     StageStats stats;
     pipeline::RunConfig c = small_run(out, tiny_model(dir), threads);
-    c.capture_slots = 64;  // room for every frame: the count below is exact
+    c.pipeline.capture_slots = 64;  // room for every frame: the count below is exact
     auto p = pipeline::RunPipeline::create(c, camera, stats);
     ASSERT_TRUE(p.ok()) << to_string(p.error());
     pipeline::RunObserver none;
@@ -243,8 +243,8 @@ TEST(Pipeline, BadCoreIsAnErrorNamingTheKey) {
   LoopSource source(4, 4);
   StageStats stats;
   pipeline::RunConfig c = small_run(dir, tiny_model(dir), 2);
-  c.labels = false;
-  c.mapping_cpu = 1023;
+  c.labels.enabled = false;
+  c.pipeline.mapping_cpu = 1023;
   auto p = pipeline::RunPipeline::create(c, source, stats);
   ASSERT_FALSE(p.ok());
   EXPECT_NE(p.error().message.find("pipeline.mapping_cpu 1023"), std::string::npos) << p.error().message;

@@ -30,16 +30,16 @@ TEST(RunSemanticsZeroAlloc, SegmentFuseAndRenderAllocateNothingPerFrame) {
   ASSERT_TRUE(source.ok());
   const Intrinsics K = (*source)->info().intrinsics;
   pipeline::RunConfig config;
-  config.width = K.width;
-  config.height = K.height;
-  config.surfel_capacity = 100'000;
-  config.model = model.string();
-  config.label_every = 1;  // the CNN and the update on every frame
+  config.run.resolution.width = K.width;
+  config.run.resolution.height = K.height;
+  config.mapping.pool.capacity = 100'000;
+  config.labels.model = model.string();
+  config.label_fusion.update_every_n_frames = 1;  // the CNN and the update on every frame
   StageStats stats;
-  auto sem = pipeline::RunSemantics::create(config, K, stats);
+  auto sem = pipeline::RunSemantics::create(pipeline::semantics_options(config), K, stats);
   ASSERT_TRUE(sem.ok()) << to_string(sem.error());
   slam::SurfelSlamOptions so;
-  so.pool.capacity = config.surfel_capacity;
+  so.pool.capacity = config.mapping.pool.capacity;
   auto slam = slam::SurfelSlam::create(K, so);
   ASSERT_TRUE(slam.ok());
 

@@ -1,0 +1,287 @@
+#include "pipeline/run_config.h"
+
+#include <sstream>
+
+#include "platform/cpu/thread_affinity.h"
+
+namespace ef::pipeline {
+
+// ---- The pipeline's own tables ----
+
+const opt::Table<RunOptions>& RunOptions::table() {
+  static const opt::Table<RunOptions> t = {
+      {"source", "", "--source", &RunOptions::source, "a source URI", opt::any(),
+       "frame source URI (edgefusion run --help lists them)"},
+      {"resolution", "", "--resolution", &RunOptions::resolution, "pixels", opt::between(8, 8192),
+       "working resolution of tracking and label fusion, WIDTHxHEIGHT"},
+      {"frames", "", "--frames", &RunOptions::frames, "frames", opt::at_least(1).or_value(-1, "all the source has"),
+       "frames to process"},
+      {"out", "", "--out", &RunOptions::out, "a folder", opt::any(),
+       "output folder, created if missing; run needs it here or as --out"},
+      {"progress", "", "--quiet", &RunOptions::progress, "", opt::any(), "progress line on stderr"},
+      {"map", "", "", &RunOptions::map, "", opt::any(), "write map.ply at the end of the run"},
+      {"realtime", "", "--realtime", &RunOptions::realtime, "", opt::any(),
+       "replay a recording at its recorded speed instead of as fast as possible"},
+  };
+  return t;
+}
+
+Status RunOptions::validate() const { return opt::check_table(*this, table(), "run"); }
+
+const opt::Table<LabelOptions>& LabelOptions::table() {
+  static const opt::Table<LabelOptions> t = {
+      {"enabled", "labels", "--no-labels", &LabelOptions::enabled, "", opt::any(),
+       "CNN segmentation and Bayesian label fusion; false = geometry only"},
+      {"model", "model", "--model", &LabelOptions::model, "a .efm file", opt::any(),
+       "segmentation model; none = the shipped models/edgefusion-seg.efm ($EDGEFUSION_MODEL overrides it)"},
+      {"out", "labels_out", "--labels-out", &LabelOptions::out, "a folder", opt::any(),
+       "folder for the map's labels rendered into every out_every-th frame as it arrives (class-id PNGs)"},
+      {"out_every", "labels_out_every", "--labels-out-every", &LabelOptions::out_every, "frames",
+       opt::between(1, 1'000'000), "write every K-th frame's rendering, counted from the first"},
+      {"final_out", "labels_final_out", "--labels-final-out", &LabelOptions::final_out, "a folder", opt::any(),
+       "recordings only: after the run, read the recording again and write the finished map's labels in every "
+       "out_every-th frame, at the estimated poses, into this folder"},
+  };
+  return t;
+}
+
+Status LabelOptions::validate() const { return opt::check_table(*this, table(), "labels"); }
+
+const opt::Table<CrfOptions>& CrfOptions::table() {
+  static const opt::Table<CrfOptions> t = {
+      {"every", "crf_every", "--crf-every", &CrfOptions::every, "frames", opt::between(1, 1'000'000).or_value(0, "off"),
+       "frames between dense CRF runs over the whole map (the paper: 500)"},
+      {"final", "crf_final", "--crf-final", &CrfOptions::final, "", opt::any(),
+       "one dense CRF over the whole map at the end of the run, before map.ply is written"},
+  };
+  return t;
+}
+
+Status CrfOptions::validate() const { return opt::check_table(*this, table(), "crf"); }
+
+const opt::Table<PipelineOptions>& PipelineOptions::table() {
+  constexpr opt::Range kCore = opt::between(0, 1023).or_value(-1, "not pinned");
+  static const opt::Table<PipelineOptions> t = {
+      {"threads", "threads", "--threads", &PipelineOptions::threads, "", opt::between(1, 3),
+       "1 = front (read, resample, preprocess), CNN and mapping take turns on one thread; 2 = front + CNN beside "
+       "mapping; 3 = each on its own thread; the outputs are the same"},
+      {"prepared_slots", "", "", &PipelineOptions::prepared_slots, "frames", opt::between(2, 16),
+       "frames in flight between front, CNN and mapping"},
+      {"capture_slots", "", "", &PipelineOptions::capture_slots, "frames", opt::between(2, 64),
+       "live cameras: frames waiting between capture and the front step (full: the oldest is dropped, counted)"},
+      {"front_cpu", "", "", &PipelineOptions::front_cpu, "", kCore, "CPU core the front step's thread is pinned to"},
+      {"cnn_cpu", "", "", &PipelineOptions::cnn_cpu, "", kCore, "CPU core the CNN's thread (threads: 3) is pinned to"},
+      {"mapping_cpu", "", "", &PipelineOptions::mapping_cpu, "", kCore, "CPU core the mapping thread is pinned to"},
+      {"capture_cpu", "", "", &PipelineOptions::capture_cpu, "", kCore,
+       "CPU core a live camera's capture thread is pinned to"},
+  };
+  return t;
+}
+
+Status PipelineOptions::validate() const { return opt::check_table(*this, table(), "pipeline"); }
+
+const opt::Table<MemoryOptions>& MemoryOptions::table() {
+  static const opt::Table<MemoryOptions> t = {
+      {"budget_mb", "memory_budget_mb", "--memory-budget-mb", &MemoryOptions::budget_mb, "MB (10^6 bytes)",
+       opt::between(1, 1'000'000), "a run refuses to start when its memory plan is larger"},
+  };
+  return t;
+}
+
+Status MemoryOptions::validate() const { return opt::check_table(*this, table(), "memory"); }
+
+// ---- The keys, bound into RunConfig ----
+
+namespace {
+
+// Adds the rows of `table` as keys of `section`, each name prefixed by `prefix` and its help by
+// `help_prefix`. `part` picks the struct out of a RunConfig (const or not).
+template <class S, class Part>
+void bind_table(std::vector<ConfigKey>& keys, const std::string& section, const std::string& prefix,
+          const std::string& help_prefix, const opt::Table<S>& table, Part part) {
+  for (const opt::Option<S>& o : table) {
+    ConfigKey k;
+    k.path = (section.empty() ? "" : section + ".") + prefix + o.name;
+    k.flat = o.flat;
+    k.flag = o.flag;
+    k.unit = o.unit;
+    k.help = help_prefix + o.help;
+    k.range = o.range;
+    const RunConfig defaults;
+    k.kind = opt::get(part(defaults), o).kind;
+    k.get = [o, part](const RunConfig& c) { return opt::get(part(c), o); };
+    k.parse = [o, part](RunConfig& c, const std::string& text) { return opt::parse_into(part(c), o, text); };
+    if (k.kind == opt::Value::kBool) {
+      const bool flag_value = !opt::get(part(defaults), o).b;
+      k.set_flag = [o, part, flag_value](RunConfig& c) {
+        opt::Value v;
+        v.kind = opt::Value::kBool;
+        v.b = flag_value;
+        opt::set(part(c), o, v);
+      };
+    }
+    keys.push_back(std::move(k));
+  }
+}
+
+std::vector<ConfigKey> make_keys() {
+  std::vector<ConfigKey> k;
+  bind_table(k, "", "", "", RunOptions::table(), [](auto& c) -> auto& { return c.run; });
+  bind_table(k, "mapping", "", "", slam::SurfelPoolOptions::table(), [](auto& c) -> auto& { return c.mapping.pool; });
+  bind_table(k, "mapping", "", "", slam::TrackerOptions::table(), [](auto& c) -> auto& { return c.mapping.tracker; });
+  bind_table(k, "mapping", "", "", slam::SurfelSlamOptions::table(), [](auto& c) -> auto& { return c.mapping; });
+  bind_table(k, "mapping", "", "", slam::PreprocessOptions::table(), [](auto& c) -> auto& { return c.mapping.preprocess; });
+  bind_table(k, "mapping", "", "", slam::PredictionOptions::table(), [](auto& c) -> auto& { return c.mapping.prediction; });
+  bind_table(k, "labels", "", "", LabelOptions::table(), [](auto& c) -> auto& { return c.labels; });
+  bind_table(k, "labels", "", "", semantic::LabelFusionOptions::table(), [](auto& c) -> auto& { return c.label_fusion; });
+  bind_table(k, "crf", "", "", CrfOptions::table(), [](auto& c) -> auto& { return c.crf; });
+  bind_table(k, "crf", "", "", semantic::DenseCrfOptions::table(), [](auto& c) -> auto& { return c.dense_crf; });
+  bind_table(k, "pipeline", "", "", PipelineOptions::table(), [](auto& c) -> auto& { return c.pipeline; });
+  bind_table(k, "memory", "", "", MemoryOptions::table(), [](auto& c) -> auto& { return c.memory; });
+  bind_table(k, "gpio", "led_", "status LED: ", GpioLineConfig::table(), [](auto& c) -> auto& { return c.gpio.led; });
+  bind_table(k, "gpio", "button_", "start/stop button: ", GpioLineConfig::table(),
+       [](auto& c) -> auto& { return c.gpio.button; });
+  bind_table(k, "gpio", "", "", GpioOptions::table(), [](auto& c) -> auto& { return c.gpio; });
+  return k;
+}
+
+}  // namespace
+
+std::string ConfigKey::section() const {
+  const auto dot = path.find('.');
+  return dot == std::string::npos ? std::string() : path.substr(0, dot);
+}
+
+std::string ConfigKey::name() const {
+  const auto dot = path.find('.');
+  return dot == std::string::npos ? path : path.substr(dot + 1);
+}
+
+std::string ConfigKey::doc() const { return opt::describe_row(help.c_str(), unit.c_str(), range, get(RunConfig())); }
+
+const std::vector<ConfigKey>& config_keys() {
+  static const std::vector<ConfigKey> keys = make_keys();
+  return keys;
+}
+
+const ConfigKey* find_config_key(const std::string& key) {
+  for (const ConfigKey& k : config_keys())
+    if (key == k.path || (!k.flat.empty() && key == k.flat)) return &k;
+  return nullptr;
+}
+
+const std::vector<std::string>& config_sections() {
+  static const std::vector<std::string> sections = [] {
+    std::vector<std::string> s;
+    for (const ConfigKey& k : config_keys()) {
+      const std::string sec = k.section();
+      if (!sec.empty() && (s.empty() || s.back() != sec)) s.push_back(sec);
+    }
+    return s;
+  }();
+  return sections;
+}
+
+std::string RunConfig::describe() const {
+  std::ostringstream o;
+  o << "# edgefusion configuration (YAML): every option with its unit, range and default.\n"
+       "# Flat names (surfel_capacity, label_every, crf_iterations, ...) also work at the top level.\n";
+  std::string section;
+  for (const ConfigKey& k : config_keys()) {
+    const std::string sec = k.section();
+    if (sec != section) {
+      o << sec << ":\n";
+      section = sec;
+    }
+    const std::string value = opt::yaml_text(k.get(*this));
+    std::string line = (sec.empty() ? "" : "  ") + std::string(value.empty() ? "# " : "") + k.name() + ":" +
+                       (value.empty() ? "" : " " + value);
+    if (line.size() < 34) line.resize(34, ' ');
+    o << line << " # " << k.doc() << "\n";
+  }
+  return o.str();
+}
+
+std::string config_keys_markdown() {
+  std::string s =
+      "| key | flat name | flag | default | unit, range | what it does |\n"
+      "|---|---|---|---|---|---|\n";
+  const RunConfig defaults;
+  for (const ConfigKey& k : config_keys()) {
+    const opt::Value d = k.get(defaults);
+    std::string def = opt::yaml_text(d);
+    if (def.empty()) def = "none";
+    std::string unit_range = k.kind == opt::Value::kText ? std::string() : k.unit;
+    const std::string r = k.kind == opt::Value::kText || k.kind == opt::Value::kBool ? "" : k.range.text();
+    if (!r.empty()) unit_range += (unit_range.empty() ? "" : ", ") + r;
+    const auto code = [](const std::string& t) { return t.empty() ? std::string() : "`" + t + "`"; };
+    std::string help = k.help;
+    for (std::size_t at = help.find('|'); at != std::string::npos; at = help.find('|', at + 2)) help.replace(at, 1, "\\|");
+    s += "| " + code(k.path) + " | " + code(k.flat) + " | " + code(k.flag) + " | " + code(def) + " | " + unit_range +
+         " | " + help + " |\n";
+  }
+  return s;
+}
+
+// ---- Checks ----
+
+Status RunConfig::validate() const { return validate(usable_cpu_cores()); }
+
+Status RunConfig::validate(const std::vector<int>& cores) const {
+  // Each part on its own (ranges from its table, its rules between fields).
+  EF_RETURN_IF_ERROR(run.validate());
+  EF_RETURN_IF_ERROR(mapping.validate());
+  EF_RETURN_IF_ERROR(labels.validate());
+  EF_RETURN_IF_ERROR(label_fusion.validate());
+  EF_RETURN_IF_ERROR(crf.validate());
+  if (labels.enabled && crf.on()) EF_RETURN_IF_ERROR(crf_options_for_run(*this).validate());
+  EF_RETURN_IF_ERROR(pipeline.validate());
+  EF_RETURN_IF_ERROR(memory.validate());
+  EF_RETURN_IF_ERROR(gpio.validate());
+
+  // Between the parts.
+  if (run.out.empty())
+    return error(ErrorCode::kInvalidArgument, "missing --out DIR (or 'out:' in --config): where the run writes");
+  if (!labels.enabled && (!labels.out.empty() || !labels.final_out.empty() || crf.on()))
+    return error(ErrorCode::kInvalidArgument,
+                 "--labels-out, --labels-final-out and the CRF need labels: drop --no-labels (or 'labels: false')");
+
+  // The machine: every pinned core must exist; all the keys that name a missing one, at once.
+  std::string missing;
+  for (const auto& [key, cpu] : {std::pair<const char*, int>{"pipeline.capture_cpu", pipeline.capture_cpu},
+                                 {"pipeline.front_cpu", pipeline.front_cpu},
+                                 {"pipeline.cnn_cpu", pipeline.cnn_cpu},
+                                 {"pipeline.mapping_cpu", pipeline.mapping_cpu}}) {
+    if (cpu < 0) continue;  // not pinned
+    bool found = false;
+    for (int c : cores) found = found || c == cpu;
+    if (!found) missing += (missing.empty() ? "" : ", ") + std::string(key) + " " + std::to_string(cpu);
+  }
+  if (!missing.empty())
+    return error(ErrorCode::kInvalidArgument,
+                 missing + ": no such core on this machine, which lets this process use " + cores_text(cores) +
+                     ". Set these keys to -1 (not pinned) or to cores it has");
+  return Status::success();
+}
+
+Status check_run(const RunConfig& config, const SourceProbe& source) {
+  if (!config.labels.final_out.empty() && source.live)
+    return error(ErrorCode::kInvalidArgument, "--labels-final-out reads the source a second time after the run; " +
+                                                  config.run.source +
+                                                  " is a live camera (record it first, e.g. to .klg)");
+  return Status::success();
+}
+
+semantic::DenseCrfOptions crf_options_for_run(const RunConfig& config) {
+  semantic::DenseCrfOptions co = config.dense_crf;
+  co.capacity = config.mapping.pool.capacity;
+  // Lattice vertices per surfel of capacity. A SurfelSlam map needs more than the CRF's default
+  // (0.3, measured on noise-free sampled surfaces): on the synthetic seed-5001 loop (370k surfels
+  // after 300 frames) the spatial kernel's lattice had 1.13 vertices per surfel (noisy normals
+  // spread it) and the bilateral one 0.80. 1.25 leaves none out there; the cost is
+  // DenseCrf::kBytesPerVertex per vertex (docs/architecture.md, memory budget).
+  co.max_lattice_vertices = co.capacity * 5 / 4;
+  return co;
+}
+
+}  // namespace ef::pipeline
