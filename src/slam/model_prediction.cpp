@@ -50,6 +50,8 @@ const opt::Table<PredictionOptions>& PredictionOptions::table() {
   static const opt::Table<PredictionOptions> t = {
       {"index_map_scale", "index_map_scale", "", &PredictionOptions::index_map_scale, "index cells per working pixel and axis",
        opt::between(1, kMaxIndexScale), "4 = ElasticFusion's, slower for the same accuracy at 320x240 (docs/results.md)"},
+      {"active_window_frames", "", "", &PredictionOptions::active_window_frames, "frames",
+       opt::between(1, 1e6).or_value(0, "no limit"), "tracking sees only surfels seen this recently (ElasticFusion: 200)"},
   };
   return t;
 }
@@ -61,7 +63,6 @@ Status PredictionOptions::validate() const {
   };
   if (!(stable_confidence >= 0.0f) || !std::isfinite(stable_confidence))
     return bad("stable_confidence", "must be finite and >= 0");
-  if (active_window_frames < 0) return bad("active_window_frames", "must be >= 0 (0 = no limit)");
   if (!(max_splat_radius_px > 0.0f && max_splat_radius_px <= kMaxSplatCapPx))
     return bad("max_splat_radius_px", "must be in (0, 64] pixels");
   if (!(near_clip_m > 0.0f) || !std::isfinite(near_clip_m)) return bad("near_clip_m", "must be > 0 metres");
