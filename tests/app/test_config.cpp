@@ -513,5 +513,21 @@ TEST(ConfigDocs, ReadmeKeyListIsTheTables) {
   EXPECT_EQ(r.out, config_keys_markdown());
 }
 
+// The README quotes no figure of its own: its table of figures is docs/headline.md's, which
+// bench/headline.sh measures in one run and copies into both.
+TEST(ConfigDocs, ReadmeFiguresAreTheHeadlineTable) {
+  const std::string begin = "<!-- headline: bench/headline.sh -->\n", end = "<!-- /headline -->";
+  const auto block = [&](const std::string& text, const char* name) {
+    const auto a = text.find(begin), b = text.find(end);
+    EXPECT_NE(a, std::string::npos) << name << " has no " << begin;
+    EXPECT_NE(b, std::string::npos) << name << " has no " << end;
+    return a == std::string::npos || b == std::string::npos ? std::string() : text.substr(a + begin.size(), b - a - begin.size());
+  };
+  const std::string readme = block(read_file(EF_SOURCE_DIR "/README.md"), "README.md");
+  const std::string headline = block(read_file(EF_SOURCE_DIR "/docs/headline.md"), "docs/headline.md");
+  EXPECT_NE(headline.find("| figure |"), std::string::npos) << "docs/headline.md has no table: run bench/headline.sh";
+  EXPECT_EQ(readme, headline) << "README.md's figures differ from docs/headline.md's: run bench/headline.sh";
+}
+
 }  // namespace
 }  // namespace ef::app

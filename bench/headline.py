@@ -1,0 +1,233 @@
+#!/usr/bin/env python3
+"""The headline figures: every figure the README claims, measured side by side in one run on this
+machine, written to docs/headline.md and into the README between its `<!-- headline -->` markers.
+Run through bench/headline.sh, which builds what this needs first.
+
+  /usr/bin/python3 bench/headline.py --build build/headline [--frames 1000] [--reps 3] [--no-readme]
+
+The runs, one after the other (never together, so that they do not share the cores):
+  SLAM        bench/slam_vs_open3d.sh: `edgefusion run --threads 1` on the 7-Scenes frames at
+              320x240 (the sum of the medians of its preprocess, track, fuse and predict stages) and
+              Open3D's frame-to-frame RGB-D odometry on the same frames (median of the call), both on
+              one thread; the ATE of both trajectories against the reference poses.
+  CNN         bench_nn_conv --model models/edgefusion-seg.efm: the shipped network's convolutions, one
+              frame, our kernels against XNNPACK's int8 operators (thread CPU time, one thread);
+              bench_nn_model: the whole forward pass at the best ISA this CPU runs.
+  pipeline    `edgefusion run` with the CNN every 10th frame (the defaults), one and two threads
+              back to back, --reps times (bench/pipeline_hz.py's runs): frames per second over the
+              whole run and the peak resident memory (stats.json), medians.
+"""
+import argparse
+import datetime
+import json
+import os
+import platform
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(REPO, "bench"))
+import pipeline_hz  # noqa: E402  (the end-to-end runs and their RSS sampling)
+
+BEGIN, END = "<!-- headline: bench/headline.sh -->\n", "<!-- /headline -->"
+
+
+def log(msg):
+    print(f"headline: {msg}", file=sys.stderr, flush=True)
+
+
+def run(cmd, **kw):
+    log("$ " + " ".join(cmd))
+    p = subprocess.run(cmd, capture_output=True, text=True, **kw)
+    if p.returncode != 0:
+        sys.exit(f"headline: {' '.join(cmd)} failed ({p.returncode}):\n{p.stdout}\n{p.stderr}")
+    return p.stdout
+
+
+def metric(path, key):
+    with open(path) as f:
+        for line in f:
+            parts = line.split()
+            if len(parts) == 2 and parts[0] == key:
+                return float(parts[1])
+    return float("nan")
+
+
+def machine():
+    model = "unknown CPU"
+    with open("/proc/cpuinfo") as f:
+        for line in f:
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    mem_gb = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    return f"{model}, {os.cpu_count()} cores, {mem_gb:.0f} GiB, {platform.system()} {platform.machine()}"
+
+
+def slam(args, work):
+    out = os.path.join(work, "slam")
+    run(["bash", os.path.join(REPO, "bench", "slam_vs_open3d.sh"), "--frames", str(args.frames), "--edgefusion",
+         args.edgefusion, "--out", out, "--data", args.data])
+    with open(os.path.join(out, "ours", "stats.json")) as f:
+        ours = json.load(f)
+    with open(os.path.join(out, "open3d", "stats.json")) as f:
+        o3d = json.load(f)
+    stages = {s: ours["stages"][s]["median_ms"] for s in ("preprocess", "track", "fuse", "predict") if s in ours["stages"]}
+    ours_ms = sum(stages.values())
+    return {
+        "frames": ours["frames"],
+        "stages": stages,
+        "ours_ms": ours_ms,
+        "o3d_ms": o3d["odometry_median_ms"],
+        "o3d_version": o3d.get("open3d_version", "?"),
+        "ratio": o3d["odometry_median_ms"] / ours_ms,
+        "ours_ate_cm": 100 * metric(os.path.join(out, "ours.ate"), "ate_rmse_m"),
+        "o3d_ate_cm": 100 * metric(os.path.join(out, "open3d.ate"), "ate_rmse_m"),
+        "lost": ours["counters"].get("lost_frames", 0),
+        "surfels": ours.get("surfels", 0),
+    }
+
+
+def cnn(args):
+    model = os.path.join(REPO, "models", "edgefusion-seg.efm")
+    conv = run([os.path.join(args.build, "bench", "bench_nn_conv"), "--model", model, "--reps", "9"])
+    m = re.search(r"model convolutions, one frame \((\d+) layers\): XNNPACK ([\d.]+) ms(?:, XNNPACK@avx2 ([\d.]+) ms)?;"
+                  r" (?:avx2|neon) path ([\d.]+) ms \(([\d.]+)x\), best path ([\d.]+) ms \(([\d.]+)x\)", conv)
+    if not m:
+        sys.exit("headline: no 'model convolutions' line in bench_nn_conv's output:\n" + conv)
+    res = {"layers": int(m.group(1)), "xnn_ms": float(m.group(2)),
+           "xnn_avx2_ms": float(m.group(3)) if m.group(3) else None, "avx2_ms": float(m.group(4)),
+           "avx2_ratio": float(m.group(5)), "best_ms": float(m.group(6)), "best_ratio": float(m.group(7))}
+    g = re.search(r"goal >= 1.0x: \S+ path on (\d+) of (\d+) shapes, best path on (\d+) of (\d+) shapes", conv)
+    res["shapes"] = (int(g.group(3)), int(g.group(4))) if g else None
+    whole = run([os.path.join(args.build, "bench", "bench_nn_model"), "--reps", "9"])
+    rows = re.findall(r"^\s+(\w+)\s+([\d.]+)\s+[\d.]+%\s+([\d.]+)\s+([\d.]+)\s", whole, re.M)
+    if not rows:
+        sys.exit("headline: no ISA rows in bench_nn_model's output:\n" + whole)
+    best = rows[-1]
+    res["forward_isa"], res["forward_ms"], res["mmac"] = best[0], float(best[1]), float(best[2])
+    res["scalar_ms"] = float(rows[0][1])
+    return res
+
+
+def pipeline(args, work):
+    source = f"7scenes:{args.data}"
+    fps = {1: [], 2: []}
+    peak = {1: [], 2: []}
+    lost = 0
+    for rep in range(args.reps):
+        for threads in (1, 2):
+            out = os.path.join(work, f"pipeline-t{threads}-r{rep}")
+            stats, _ = pipeline_hz.one_run(args.edgefusion, source, args.frames, threads, out, [])
+            fps[threads].append(stats["fps"])
+            peak[threads].append(stats["peak_rss_bytes"] / 1e6)
+            lost = stats["counters"]["lost_frames"]
+            log(f"pipeline rep {rep + 1}/{args.reps}, {threads} thread(s): {stats['fps']:.1f} Hz, "
+                f"peak RSS {peak[threads][-1]:.1f} MB")
+    ratios = [b / a for a, b in zip(fps[1], fps[2])]
+    return {"hz1": statistics.median(fps[1]), "hz2": statistics.median(fps[2]), "ratio": statistics.median(ratios),
+            "rss1": statistics.median(peak[1]), "rss2": statistics.median(peak[2]), "lost": lost,
+            "all_hz2": fps[2]}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default=os.path.join(REPO, "build", "headline"))
+    ap.add_argument("--frames", type=int, default=1000)
+    ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--data", default=os.path.join(os.environ.get("EF_SHARED_DATA", os.path.join(REPO, "..", "shared", "data")),
+                                                   "7scenes-redkitchen"))
+    ap.add_argument("--no-readme", action="store_true")
+    ap.add_argument("--setup-seconds", type=float, default=0)
+    args = ap.parse_args()
+    args.build = os.path.abspath(args.build)
+    args.data = os.path.abspath(args.data)
+    args.edgefusion = os.path.join(args.build, "firmware_app", "edgefusion")
+    t0 = time.monotonic()
+    load_before = os.getloadavg()[0]
+    commit = subprocess.run(["git", "-C", REPO, "describe", "--always", "--dirty"], capture_output=True,
+                            text=True).stdout.strip() or "unknown"
+    with tempfile.TemporaryDirectory(prefix="edgefusion-headline-") as work:
+        s = slam(args, work)
+        c = cnn(args)
+        p = pipeline(args, work)
+    load_after = os.getloadavg()[0]
+    minutes = (time.monotonic() - t0 + args.setup_seconds) / 60
+
+    kitchen = f"real: 7-Scenes kitchen, {args.frames} Kinect frames"
+    rows = [
+        ("SLAM per frame (preprocess + track + fuse + predict, medians), one thread", f"{s['ours_ms']:.1f} ms",
+         f"{kitchen}, 320x240", "bench/slam_vs_open3d.sh"),
+        (f"Open3D {s['o3d_version']} RGB-D odometry per frame (frame to frame), one thread, same frames",
+         f"{s['o3d_ms']:.1f} ms", kitchen, "same run"),
+        ("Open3D time / SLAM time", f"{s['ratio']:.1f}x", kitchen, "same run"),
+        ("Trajectory error (ATE RMSE): EdgeFusion / Open3D", f"{s['ours_ate_cm']:.2f} / {s['o3d_ate_cm']:.2f} cm",
+         kitchen, "same run, `edgefusion eval ate`"),
+        (f"CNN convolutions of the shipped network ({c['layers']} layers), one frame: ours / XNNPACK, best ISA",
+         f"{c['best_ms']:.2f} / {c['xnn_ms']:.2f} ms ({c['best_ratio']:.2f}x)", "any input (timing)",
+         "bench_nn_conv --model"),
+    ]
+    if c["xnn_avx2_ms"] is not None:
+        rows.append(("The same on the AVX2 path: ours / XNNPACK capped at AVX2",
+                     f"{c['avx2_ms']:.2f} / {c['xnn_avx2_ms']:.2f} ms ({c['avx2_ratio']:.2f}x)", "any input (timing)",
+                     "same run"))
+    rows += [
+        (f"Whole CNN forward pass ({c['mmac']:.1f} M multiply-adds), {c['forward_isa']}", f"{c['forward_ms']:.2f} ms",
+         "any input (timing)", "bench_nn_model"),
+        ("End-to-end rate of `edgefusion run`, CNN every 10th frame: 1 thread / 2 threads",
+         f"{p['hz1']:.1f} / {p['hz2']:.1f} Hz", kitchen, f"bench/pipeline_hz.py's runs, median of {args.reps}"),
+        ("Peak resident memory of that run, default 1,000,000-surfel pool, 2 threads", f"{p['rss2']:.0f} MB", kitchen,
+         "same runs, stats.json peak_rss_bytes"),
+    ]
+    table = "| figure | value | data | measured by |\n|---|---|---|---|\n"
+    for r in rows:
+        table += "| " + " | ".join(r) + " |\n"
+
+    when = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
+    md = f"""# Headline figures
+
+Written by `bash bench/headline.sh` (bench/headline.py) on {when}, at commit `{commit}`, on
+{machine()}. Load average {load_before:.2f} before and {load_after:.2f} after; the whole script took
+{minutes:.1f} minutes, the build included. Every figure the README quotes is in this table, measured
+in this one run; rerun the script when a change can move one of them.
+
+{BEGIN}{table}{END}
+
+## Details
+
+- SLAM (`bench/slam_vs_open3d.sh --frames {args.frames}`): stage medians
+  {", ".join(f"{k} {v:.2f}" for k, v in s['stages'].items())} ms; {s['lost']} frames lost;
+  {s['surfels']:,} surfels at the end. Open3D's time is its odometry call alone (the frames are read
+  and shrunk outside it); ours is the sum of the four stage medians (decoding and resampling not
+  included).
+- CNN (`bench_nn_conv --model models/edgefusion-seg.efm --reps 9`, `bench_nn_model --reps 9`): thread CPU
+  time, one thread, median of 9. Our kernels are faster than XNNPACK's on
+  {c['shapes'][0] if c['shapes'] else '?'} of {c['shapes'][1] if c['shapes'] else '?'} convolution shapes
+  on the best path. The forward pass's scalar reference: {c['scalar_ms']:.1f} ms.
+- Pipeline: two threads / one thread, side by side per repetition, median {p['ratio']:.2f}x; two-thread
+  rates {", ".join(f"{v:.1f}" for v in p['all_hz2'])} Hz; peak RSS with one thread {p['rss1']:.0f} MB;
+  {p['lost']} frames lost.
+"""
+    with open(os.path.join(REPO, "docs", "headline.md"), "w") as f:
+        f.write(md)
+    log(f"wrote docs/headline.md ({minutes:.1f} minutes)")
+    if not args.no_readme:
+        path = os.path.join(REPO, "README.md")
+        with open(path) as f:
+            readme = f.read()
+        a, b = readme.find(BEGIN), readme.find(END)
+        if a < 0 or b < 0:
+            sys.exit(f"headline: README.md has no {BEGIN.strip()} ... {END} block")
+        readme = readme[:a + len(BEGIN)] + table + readme[b:]
+        with open(path, "w") as f:
+            f.write(readme)
+        log("updated the README's table")
+    print(md)
+
+
+if __name__ == "__main__":
+    main()
