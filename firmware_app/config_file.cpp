@@ -97,8 +97,9 @@ class FileReader {
       if (!k.IsScalar())
         return error(ErrorCode::kInvalidArgument, at + ": a key must be a plain name, got " + node_kind(k));
       const std::string key = prefix.empty() ? k.Scalar() : prefix + "." + k.Scalar();
-      if (prefix.empty() && is_section(key) && (v.IsMap() || key != "labels")) {
-        // A section (`labels: true` is also the flat switch of labels.enabled).
+      if (prefix.empty() && is_section(key) && (v.IsMap() || find_config_key(key) == nullptr)) {
+        // A section; a section's name that is also a flat key takes a value (`labels: true`, the
+        // flat switch of labels.enabled).
         if (!v.IsMap())
           return error(ErrorCode::kInvalidArgument,
                        at + ": key '" + key + "': expected a section of keys (for example " + key +
