@@ -1,5 +1,5 @@
 // Runs a validated model: layers in file order on one arena planned at creation. After create(),
-// run() never touches the heap (tests/core/test_nn_zero_alloc.cpp).
+// run() never touches the heap (tests/nn/test_nn_zero_alloc.cpp).
 //
 // Ownership: the executor borrows the Model (it must outlive the executor) and owns its arena.
 // Threads: one executor per thread; several executors may share one Model.

@@ -12,14 +12,14 @@
 //   surfel that survived takes part), rendered by semantic::render_labels with the run's visibility
 //   test; a frame the run lost takes the CNN's labels, as in the run;
 //   written as DIR/<frame name>.png (the names --labels-out uses), for the frames whose 0-based
-//   number is a multiple of config.labels_out_every.
+//   number is a multiple of labels.out_every.
 // Frames are matched to trajectory lines by timestamp (written with microseconds), in order, so a
 // frame the run never mapped (it stopped early, or the recording had a corrupt frame) is skipped
 // and counted, never given another frame's pose.
 //
 // Memory: FinalLabelBuffers, allocated once at the start of the pass (a frame at the source's and the
 // working size, one CNN result, a predictor and the rendered image: 10.7 MB for a 640x480 source at
-// 320x240, the memory plan's "final label pass", which tests/app/test_config.cpp checks against
+// 320x240, the memory plan's "final label pass", which tests/pipeline/test_memory_plan.cpp checks against
 // bytes()); nothing per frame except inside libpng. It runs after the run's outputs are written, so
 // a failure here never loses them.
 #pragma once

@@ -26,7 +26,7 @@
 // disappears (is_camera_lost) ends the run like a stop, not as an error.
 //
 // Memory: create() allocates everything (SLAM, semantics, slots, rings); run() allocates nothing per
-// frame (tests/core/test_pipeline.cpp counts it over 3000 frames).
+// frame (tests/pipeline/test_pipeline.cpp counts it over 3000 frames).
 #pragma once
 
 #include <cstdint>

@@ -9,7 +9,7 @@
 //
 // Memory: everything is allocated by create() (the executor's arena and packed weights, the
 // resampled frame, the float input, the probabilities and the class-id image); segment() and
-// upsample_labels() never touch the heap (tests/core/test_segmenter_zero_alloc.cpp) when the frame
+// upsample_labels() never touch the heap (tests/semantic/test_segmenter_zero_alloc.cpp) when the frame
 // is an integer multiple of the input size with a factor up to 16 (640x480 or 320x240 to 160x120).
 // Other sizes go through resample_frame as a whole, where OpenCV's resize takes scratch memory from
 // the heap on each call.
