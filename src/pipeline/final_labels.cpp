@@ -36,6 +36,12 @@ Result<FinalLabelBuffers> FinalLabelBuffers::create(const RunOptions& run, const
   b.working.allocate(run.resolution.width, run.resolution.height, recording.has_labels);
   semantics.allocate(b.cnn);
   b.rendered.allocate(run.resolution.width, run.resolution.height);
+  // The memory plan sizes these buffers by bytes_for(): the two must never disagree.
+  const std::size_t planned = bytes_for(run, recording.intrinsics.width, recording.intrinsics.height,
+                                        recording.has_labels, b.predictor.bytes(), b.cnn.bytes());
+  if (b.bytes() != planned)
+    return error(ErrorCode::kInternal, "final label pass: allocated " + std::to_string(b.bytes()) +
+                                           " bytes, bytes_for() says " + std::to_string(planned));
   return b;
 }
 

@@ -137,6 +137,10 @@ Result<DenseCrf> DenseCrf::create(const DenseCrfOptions& options) {
   for (auto& buffer : crf.scratch_) buffer = make_aligned_array<float>(crf.scratch_floats_);
   crf.q_ = make_aligned_array<uint16_t>(std::size_t(options.capacity) * kV);
   crf.order_ = make_aligned_array<uint32_t>(std::size_t(options.capacity));
+  // The memory plan sizes this object by bytes_for(): the two must never disagree.
+  if (crf.bytes() != bytes_for(options))
+    return error(ErrorCode::kInternal, "dense crf: allocated " + std::to_string(crf.bytes()) + " bytes, bytes_for() says " +
+                                           std::to_string(bytes_for(options)));
   return crf;
 }
 

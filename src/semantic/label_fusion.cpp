@@ -49,6 +49,10 @@ Result<LabelFusion> LabelFusion::create(const LabelFusionOptions& options) {
   f.cnn_x_of_index_x_.assign(std::size_t(options.working_width) * kMaxIndexScale, 0);
   f.pairs_.resize(std::size_t(options.working_width) * std::size_t(options.working_height) * kMaxIndexScale *
                   kMaxIndexScale);
+  // The memory plan sizes this object by bytes_for(): the two must never disagree.
+  if (f.bytes() != bytes_for(options))
+    return error(ErrorCode::kInternal, "label fusion: allocated " + std::to_string(f.bytes()) + " bytes, bytes_for() says " +
+                                           std::to_string(bytes_for(options)));
   // Builds the observation cost table now (semantic/label_store.cpp), not in the first fuse().
   const float warm[kLabelClasses] = {1.0f};
   uint8_t scratch[kLabelBytes];

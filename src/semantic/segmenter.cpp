@@ -75,6 +75,11 @@ Result<std::unique_ptr<Segmenter>> Segmenter::prepare(std::unique_ptr<Segmenter>
   if (s->input_.size() != std::size_t(s->in_w_) * std::size_t(s->in_h_) * kInputChannels ||
       s->probs_.size() != std::size_t(s->out_w_) * std::size_t(s->out_h_) * std::size_t(s->num_classes_))
     return error(ErrorCode::kInternal, file + ": segmenter: executor buffer sizes disagree with the model's tensors");
+  // The memory plan sizes this object by buffer_bytes_for(): the two must never disagree.
+  if (s->buffer_bytes() != buffer_bytes_for(*s->model_))
+    return error(ErrorCode::kInternal, file + ": segmenter: allocated " + std::to_string(s->buffer_bytes()) +
+                                           " buffer bytes, buffer_bytes_for() says " +
+                                           std::to_string(buffer_bytes_for(*s->model_)));
   return s;
 }
 

@@ -471,6 +471,12 @@ TEST(ConfigExample, Arm64ExampleIsValidAndWithinItsBudget) {
   auto plan = plan_memory(c, *probe);
   ASSERT_TRUE(plan.ok()) << to_string(plan.error());
   EXPECT_TRUE(plan->within_budget()) << plan->table();
+  // And `edgefusion plan` passes it on a machine that has the cores it pins.
+  const std::vector<int> cores = usable_cpu_cores();
+  if (cores.size() >= 4 && cores[3] == 3) {
+    const CliResult r = cli({"plan", "--config", kExampleConfig});
+    EXPECT_EQ(r.code, 0) << r.out << r.err;
+  }
 }
 
 // The acceptance of the configuration issue: `edgefusion plan` on the shipped ARM64 configuration,

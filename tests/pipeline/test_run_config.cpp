@@ -27,28 +27,41 @@ std::string outside(const ConfigKey& k, bool below) {
   return integer ? std::to_string(static_cast<long long>(v)) : std::to_string(v);
 }
 
+// A number as the configuration file would write it.
+std::string text_of(double v) {
+  opt::Value x;
+  x.kind = opt::Value::kReal;
+  x.d = v;
+  return opt::yaml_text(x);
+}
+
 TEST(ConfigKeys, EveryKeyIsOneRowWithItsOwnNamesAndAValidDefault) {
   const RunConfig defaults;
   std::set<std::string> paths, flats, flags;
   ASSERT_GE(config_keys().size(), 40u);
   for (const ConfigKey& k : config_keys()) {
     EXPECT_TRUE(paths.insert(k.path).second) << "path twice: " << k.path;
-    if (!k.flat.empty()) EXPECT_TRUE(flats.insert(k.flat).second) << "flat name twice: " << k.flat;
+    if (!k.flat.empty()) {
+      EXPECT_TRUE(flats.insert(k.flat).second) << "flat name twice: " << k.flat;
+    }
     if (!k.flag.empty()) {
       EXPECT_TRUE(flags.insert(k.flag).second) << "flag twice: " << k.flag;
       EXPECT_EQ(k.flag.rfind("--", 0), 0u) << k.flag;
     }
     EXPECT_FALSE(k.help.empty()) << k.path;
     EXPECT_EQ(find_config_key(k.path), &k);
-    if (!k.flat.empty()) EXPECT_EQ(find_config_key(k.flat), &k);
+    if (!k.flat.empty()) {
+      EXPECT_EQ(find_config_key(k.flat), &k);
+    }
     // The default is the struct's initialiser, and it is within the key's own range.
     const opt::Value d = k.get(defaults);
-    if (d.kind != opt::Value::kText) EXPECT_EQ(opt::check_value(d, k.range, k.unit.c_str()), "") << k.path;
+    if (d.kind != opt::Value::kText) {
+      EXPECT_EQ(opt::check_value(d, k.range, k.unit.c_str()), "") << k.path;
+    }
     EXPECT_NE(k.doc().find("default"), std::string::npos) << k.path;
   }
   // A flat name is never another key's path.
-  for (const std::string& f : flats)
-    if (paths.count(f)) EXPECT_NE(find_config_key(f)->flat, "") << f;
+  for (const std::string& f : flats) EXPECT_EQ(paths.count(f), 0u) << f << " is a flat name and another key's path";
   EXPECT_EQ(config_sections(), (std::vector<std::string>{"mapping", "labels", "crf", "pipeline", "memory", "gpio"}));
 }
 
@@ -67,7 +80,7 @@ TEST(ConfigKeys, RangesComeFromTheTables) {
       EXPECT_NE(why.find(k.range.text()), std::string::npos) << k.path << ": " << why;
       EXPECT_EQ(opt::yaml_text(k.get(c)), before) << k.path;
       if (!k.range.min_open) {
-        EXPECT_EQ(k.parse(c, opt::yaml_text(opt::Value{opt::Value::kReal, false, 0, k.range.min})), "") << k.path;
+        EXPECT_EQ(k.parse(c, text_of(k.range.min)), "") << k.path;
         ++checked;
       }
     }
@@ -75,12 +88,12 @@ TEST(ConfigKeys, RangesComeFromTheTables) {
       RunConfig d;
       const std::string bad = outside(k, false);
       EXPECT_NE(k.parse(d, bad), "") << k.path << " took " << bad;
-      EXPECT_EQ(k.parse(d, opt::yaml_text(opt::Value{opt::Value::kReal, false, 0, k.range.max})), "") << k.path;
+      EXPECT_EQ(k.parse(d, text_of(k.range.max)), "") << k.path;
       ++checked;
     }
     if (k.range.has_special) {
       RunConfig d;
-      EXPECT_EQ(k.parse(d, opt::yaml_text(opt::Value{opt::Value::kReal, false, 0, k.range.special})), "") << k.path;
+      EXPECT_EQ(k.parse(d, text_of(k.range.special)), "") << k.path;
     }
     RunConfig e;
     EXPECT_NE(k.parse(e, "x"), "") << k.path;
