@@ -196,7 +196,7 @@ const std::vector<OptionSpec>& config_override_options() {
       if (k.flag.empty()) continue;
       const bool is_flag = k.kind == opt::Value::kBool;
       // A bool's flag sets the opposite of its default: say what it does, not the key's wording.
-      std::string help = is_flag ? "sets " + k.path + " to " + (k.get(RunConfig()).b ? "false" : "true") + ": " + k.help
+      std::string help = is_flag ? k.path + ": " + (k.get(RunConfig()).b ? "false" : "true") + " (" + k.help + ")"
                                  : k.doc();
       std::string value_name;
       if (!is_flag) {

@@ -15,7 +15,7 @@ const opt::Table<RunOptions>& RunOptions::table() {
       {"resolution", "", "--resolution", &RunOptions::resolution, "pixels", opt::between(8, 8192),
        "working resolution of tracking and label fusion, WIDTHxHEIGHT"},
       {"frames", "", "--frames", &RunOptions::frames, "frames", opt::at_least(1).or_value(-1, "all the source has"),
-       "frames to process"},
+       "how many to process, from the first"},
       {"out", "", "--out", &RunOptions::out, "a folder", opt::any(),
        "output folder, created if missing; run needs it here or as --out"},
       {"progress", "", "--quiet", &RunOptions::progress, "", opt::any(), "progress line on stderr"},
@@ -50,7 +50,7 @@ Status LabelOptions::validate() const { return opt::check_table(*this, table(), 
 const opt::Table<CrfOptions>& CrfOptions::table() {
   static const opt::Table<CrfOptions> t = {
       {"every", "crf_every", "--crf-every", &CrfOptions::every, "frames", opt::between(1, 1'000'000).or_value(0, "off"),
-       "frames between dense CRF runs over the whole map (the paper: 500)"},
+       "how often the dense CRF runs over the whole map (the paper: every 500)"},
       {"final", "crf_final", "--crf-final", &CrfOptions::final, "", opt::any(),
        "one dense CRF over the whole map at the end of the run, before map.ply is written"},
   };
@@ -66,9 +66,10 @@ const opt::Table<PipelineOptions>& PipelineOptions::table() {
        "1 = front (read, resample, preprocess), CNN and mapping take turns on one thread; 2 = front + CNN beside "
        "mapping; 3 = each on its own thread; the outputs are the same"},
       {"prepared_slots", "", "", &PipelineOptions::prepared_slots, "frames", opt::between(2, 16),
-       "frames in flight between front, CNN and mapping"},
+       "how many frames are in flight between front, CNN and mapping"},
       {"capture_slots", "", "", &PipelineOptions::capture_slots, "frames", opt::between(2, 64),
-       "live cameras: frames waiting between capture and the front step (full: the oldest is dropped, counted)"},
+       "live cameras: how many frames wait between capture and the front step (full: the oldest is dropped, "
+       "counted)"},
       {"front_cpu", "", "", &PipelineOptions::front_cpu, "", kCore, "CPU core the front step's thread is pinned to"},
       {"cnn_cpu", "", "", &PipelineOptions::cnn_cpu, "", kCore, "CPU core the CNN's thread (threads: 3) is pinned to"},
       {"mapping_cpu", "", "", &PipelineOptions::mapping_cpu, "", kCore, "CPU core the mapping thread is pinned to"},

@@ -15,7 +15,7 @@ int32_t nearest(int64_t u, int64_t from, int64_t to) { return static_cast<int32_
 const opt::Table<LabelFusionOptions>& LabelFusionOptions::table() {
   static const opt::Table<LabelFusionOptions> t = {
       {"every", "label_every", "--label-every", &LabelFusionOptions::update_every_n_frames, "frames",
-       opt::between(1, 1'000'000), "frames between CNN label updates (the paper's 10)"},
+       opt::between(1, 1'000'000), "how often the CNN's labels are fused: every N-th frame (the paper's 10)"},
       {"visibility", "label_visibility", "", &LabelFusionOptions::visibility_test, "", opt::any(),
        "fuse and render only surfels at the measured depth; false = every index-map surfel"},
   };
