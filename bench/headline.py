@@ -191,8 +191,9 @@ def main():
     md = f"""# Headline figures
 
 Written by `bash bench/headline.sh` (bench/headline.py) on {when}, at commit `{commit}`, on
-{machine()}. Load average {load_before:.2f} before and {load_after:.2f} after; the whole script took
-{minutes:.1f} minutes, the build included. Every figure the README quotes is in this table, measured
+{machine()}. One-minute load average {load_before:.2f} when the measurements began (the build
+just before them raises it) and {load_after:.2f} at the end; the whole script took {minutes:.1f} minutes,
+the build included. Every figure the README quotes is in this table, measured
 in this one run; rerun the script when a change can move one of them.
 
 {BEGIN}{table}{END}
