@@ -40,7 +40,7 @@ std::string plan_help() {
       "Exit status: 0 within the budget, 1 over it (a run would refuse to start), 2 a configuration,\n"
       "source or model error.\n\n"
       "The configuration file, with every key, its unit and its default:\n\n" +
-          describe_config(RunConfig()),
+          RunConfig().describe(),
       plan_options());
 }
 

@@ -135,14 +135,6 @@ class FileReader {
 
 }  // namespace
 
-std::string describe_config(const RunConfig& config) { return config.describe(); }
-
-std::vector<std::string> config_key_paths() {
-  std::vector<std::string> keys;
-  for (const ConfigKey& k : config_keys()) keys.push_back(k.path);
-  return keys;
-}
-
 Status apply_config_value(const std::string& key, const std::string& value, const std::string& where,
                           RunConfig& config) {
   const ConfigKey* option = find_config_key(key);

@@ -27,9 +27,6 @@ namespace ef::app {
 
 using pipeline::RunConfig;
 
-// RunConfig::describe(): the configuration as a complete YAML file with every key documented.
-std::string describe_config(const RunConfig& config);
-
 // Applies the keys of a YAML configuration file to `config`. Errors (kInvalidArgument; kNotFound
 // when the file cannot be opened) name the file, the line, the key path and the bad value; a file
 // with an error leaves `config` as it was.
@@ -43,9 +40,6 @@ Status apply_config_text(const std::string& text, const std::string& name, RunCo
 // given and the value.
 Status apply_config_value(const std::string& key, const std::string& value, const std::string& where,
                           RunConfig& config);
-
-// Every key as a section path ("source", "mapping.surfel_capacity", ...), in file order.
-std::vector<std::string> config_key_paths();
 
 // The command-line options of `run` and `plan`: --config FILE, then the flag of every key that has
 // one (--source, --resolution, ..., --no-labels, --threads), with its help from the key's table.

@@ -134,12 +134,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
         "input " + size_text(int(in.w), int(in.h)) + ", output " + size_text(int(out.w), int(out.h)) + " x " +
             std::to_string(out.c) + " classes");
     const SemanticsOptions sem = semantics_options(config);
-    semantic::LabelFusionOptions fusion = sem.fusion;
-    fusion.working_width = w;
-    fusion.working_height = h;
-    fusion.cnn_width = int(out.w);
-    fusion.cnn_height = int(out.h);
-    add("label fusion", semantic::LabelFusion::bytes_for(fusion),
+    add("label fusion", semantic::LabelFusion::bytes_for(RunSemantics::fusion_options(sem, w, h, int(out.w), int(out.h))),
         "16 bytes per CNN pixel + a pair per index cell at the largest scale (" +
             std::to_string(slam::kMaxIndexScale) + "x)");
     cnn_result = CnnResult::bytes_for(int(out.w), int(out.h), int(out.c), w, h);

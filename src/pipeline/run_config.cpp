@@ -99,7 +99,8 @@ namespace {
 // `help_prefix`. `part` picks the struct out of a RunConfig (const or not).
 template <class S, class Part>
 void bind_table(std::vector<ConfigKey>& keys, const std::string& section, const std::string& prefix,
-          const std::string& help_prefix, const opt::Table<S>& table, Part part) {
+                const std::string& help_prefix, const opt::Table<S>& table, Part part) {
+  const RunConfig defaults;
   for (const opt::Option<S>& o : table) {
     ConfigKey k;
     k.path = (section.empty() ? "" : section + ".") + prefix + o.name;
@@ -108,7 +109,6 @@ void bind_table(std::vector<ConfigKey>& keys, const std::string& section, const 
     k.unit = o.unit;
     k.help = help_prefix + o.help;
     k.range = o.range;
-    const RunConfig defaults;
     k.kind = opt::get(part(defaults), o).kind;
     k.get = [o, part](const RunConfig& c) { return opt::get(part(c), o); };
     k.parse = [o, part](RunConfig& c, const std::string& text) { return opt::parse_into(part(c), o, text); };

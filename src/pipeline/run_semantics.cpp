@@ -31,6 +31,16 @@ std::size_t RunSemantics::rendering_bytes_for(int working_width, int working_hei
   return std::size_t(working_width) * std::size_t(working_height);
 }
 
+semantic::LabelFusionOptions RunSemantics::fusion_options(const SemanticsOptions& options, int working_width,
+                                                         int working_height, int cnn_width, int cnn_height) {
+  semantic::LabelFusionOptions o = options.fusion;
+  o.working_width = working_width;
+  o.working_height = working_height;
+  o.cnn_width = cnn_width;
+  o.cnn_height = cnn_height;
+  return o;
+}
+
 std::size_t RunSemantics::class_column_bytes_for(int64_t pool_capacity) {
   return std::size_t(pool_capacity) * (sizeof(uint8_t) + sizeof(float));
 }
@@ -59,12 +69,9 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOption
                                               std::to_string(semantic::kLabelClasses) +
                                               " (unknown + the 13 NYUv2 classes)");
 
-  semantic::LabelFusionOptions fo = options.fusion;
-  fo.working_width = working.width;
-  fo.working_height = working.height;
-  fo.cnn_width = s->segmenter_->output_width();
-  fo.cnn_height = s->segmenter_->output_height();
-  auto fusion = semantic::LabelFusion::create(fo);
+  auto fusion = semantic::LabelFusion::create(fusion_options(options, working.width, working.height,
+                                                             s->segmenter_->output_width(),
+                                                             s->segmenter_->output_height()));
   if (!fusion.ok()) return fusion.take_error();
   s->fusion_ = std::make_unique<semantic::LabelFusion>(std::move(*fusion));
 

@@ -85,6 +85,10 @@ class RunSemantics {
   // Bytes create() allocates besides the segmenter: the rendered image at the working size and
   // map.ply's class columns (5 bytes per surfel of capacity).
   static std::size_t rendering_bytes_for(int working_width, int working_height);
+  // The label fusion create() makes: options.fusion for a working image of working_width x
+  // working_height and a CNN output of cnn_width x cnn_height (also what the memory plan sizes).
+  static semantic::LabelFusionOptions fusion_options(const SemanticsOptions& options, int working_width,
+                                                     int working_height, int cnn_width, int cnn_height);
   static std::size_t class_column_bytes_for(int64_t pool_capacity);
 
   // Segment step: whether the CNN runs on frame `frame_number` (0-based count of frames delivered):

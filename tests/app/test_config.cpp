@@ -35,52 +35,9 @@ Result<RunConfig> read_text(const std::string& text) {
   return c;
 }
 
-// Every field of two configurations, compared one by one (names in the failure message).
+// Two configurations key by key (every key the option tables bind, named in the failure message;
+// a key added later is compared too).
 void expect_same(const RunConfig& a, const RunConfig& b) {
-  EXPECT_EQ(a.run.source, b.run.source);
-  EXPECT_EQ(a.run.resolution.width, b.run.resolution.width);
-  EXPECT_EQ(a.run.resolution.height, b.run.resolution.height);
-  EXPECT_EQ(a.run.frames, b.run.frames);
-  EXPECT_EQ(a.run.out, b.run.out);
-  EXPECT_EQ(a.run.progress, b.run.progress);
-  EXPECT_EQ(a.run.map, b.run.map);
-  EXPECT_EQ(a.run.realtime, b.run.realtime);
-  EXPECT_EQ(a.mapping.pool.capacity, b.mapping.pool.capacity);
-  EXPECT_EQ(a.mapping.tracker.icp_weight, b.mapping.tracker.icp_weight);
-  EXPECT_EQ(a.mapping.tracker.rgb_weight, b.mapping.tracker.rgb_weight);
-  EXPECT_EQ(a.mapping.tracker.rgb_boost_condition, b.mapping.tracker.rgb_boost_condition);
-  EXPECT_EQ(a.mapping.tracker.rgb_boost_max, b.mapping.tracker.rgb_boost_max);
-  EXPECT_EQ(a.mapping.preprocess.depth_cutoff_m, b.mapping.preprocess.depth_cutoff_m);
-  EXPECT_EQ(a.mapping.prediction.index_map_scale, b.mapping.prediction.index_map_scale);
-  EXPECT_EQ(a.mapping.associate_at_tracked_pose, b.mapping.associate_at_tracked_pose);
-  EXPECT_EQ(a.mapping.constant_velocity_guess, b.mapping.constant_velocity_guess);
-  EXPECT_EQ(a.labels.enabled, b.labels.enabled);
-  EXPECT_EQ(a.labels.model, b.labels.model);
-  EXPECT_EQ(a.label_fusion.update_every_n_frames, b.label_fusion.update_every_n_frames);
-  EXPECT_EQ(a.labels.out, b.labels.out);
-  EXPECT_EQ(a.labels.out_every, b.labels.out_every);
-  EXPECT_EQ(a.labels.final_out, b.labels.final_out);
-  EXPECT_EQ(a.label_fusion.visibility_test, b.label_fusion.visibility_test);
-  EXPECT_EQ(a.crf.every, b.crf.every);
-  EXPECT_EQ(a.crf.final, b.crf.final);
-  EXPECT_EQ(a.dense_crf.iterations, b.dense_crf.iterations);
-  EXPECT_EQ(a.memory.budget_mb, b.memory.budget_mb);
-  EXPECT_EQ(a.pipeline.threads, b.pipeline.threads);
-  EXPECT_EQ(a.pipeline.prepared_slots, b.pipeline.prepared_slots);
-  EXPECT_EQ(a.pipeline.capture_slots, b.pipeline.capture_slots);
-  EXPECT_EQ(a.pipeline.front_cpu, b.pipeline.front_cpu);
-  EXPECT_EQ(a.pipeline.cnn_cpu, b.pipeline.cnn_cpu);
-  EXPECT_EQ(a.pipeline.mapping_cpu, b.pipeline.mapping_cpu);
-  EXPECT_EQ(a.pipeline.capture_cpu, b.pipeline.capture_cpu);
-  EXPECT_EQ(a.gpio.led.chip, b.gpio.led.chip);
-  EXPECT_EQ(a.gpio.led.offset, b.gpio.led.offset);
-  EXPECT_EQ(a.gpio.led.active_low, b.gpio.led.active_low);
-  EXPECT_EQ(a.gpio.button.chip, b.gpio.button.chip);
-  EXPECT_EQ(a.gpio.button.offset, b.gpio.button.offset);
-  EXPECT_EQ(a.gpio.button.active_low, b.gpio.button.active_low);
-  EXPECT_EQ(a.gpio.debounce_ms, b.gpio.debounce_ms);
-  EXPECT_EQ(a.gpio.optional, b.gpio.optional);
-  // And every key the tables bind, so that a key added later is compared too.
   for (const ConfigKey& k : config_keys()) EXPECT_EQ(opt::yaml_text(k.get(a)), opt::yaml_text(k.get(b))) << k.path;
 }
 
@@ -253,8 +210,9 @@ TEST(ConfigYaml, EveryErrorNamesFileLineKeyAndValue) {
 }
 
 TEST(ConfigYaml, DescribeDocumentsEveryKeyWithItsDefault) {
-  const std::string text = describe_config(RunConfig());
-  for (const std::string& key : config_key_paths()) {
+  const std::string text = RunConfig().describe();
+  for (const ConfigKey& k : config_keys()) {
+    const std::string& key = k.path;
     const auto dot = key.find('.');
     const std::string name = dot == std::string::npos ? key : key.substr(dot + 1);
     const auto section_at = dot == std::string::npos ? 0 : text.find("\n" + key.substr(0, dot) + ":\n");
@@ -274,8 +232,8 @@ TEST(ConfigYaml, DescribeDocumentsEveryKeyWithItsDefault) {
 
 TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   const RunConfig defaults;
-  auto back = read_text(describe_config(defaults));
-  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << describe_config(defaults);
+  auto back = read_text(defaults.describe());
+  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << defaults.describe();
   expect_same(*back, defaults);
 
   RunConfig c;  // every field away from its default; strings YAML would misread unquoted
@@ -322,8 +280,8 @@ TEST(ConfigYaml, DescribeReadsBackToTheSameConfiguration) {
   c.gpio.button.active_low = false;
   c.gpio.debounce_ms = 45;
   c.gpio.optional = true;
-  back = read_text(describe_config(c));
-  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << describe_config(c);
+  back = read_text(c.describe());
+  ASSERT_TRUE(back.ok()) << to_string(back.error()) << "\n" << c.describe();
   expect_same(*back, c);
 }
 
