@@ -6,6 +6,8 @@
 #
 #   bash bench/output_digests.sh [EDGEFUSION] > digests.txt      (default build/release/firmware_app/edgefusion)
 #   EF_DIGEST_QUICK=1 ...   the synthetic runs only (about a minute; the full set about 5 minutes)
+#   EF_DIGEST_FLAGS="--deterministic" ...   flags added to every run (a program whose CNN runs beside
+#                           the mapper needs --deterministic for labels that do not depend on timing)
 #
 # The runs (each in its own folder under $EF_DIGEST_DIR, default a temporary one):
 #   7scenes      the real 7-Scenes kitchen, 1000 frames, defaults, label images as they arrive and
@@ -53,7 +55,8 @@ run() {
   local name="$1"
   shift
   rm -rf "${work:?}/$name"
-  "$bin" run --quiet --out "$work/$name" "$@" >"$work/$name.log" 2>&1 || {
+  # shellcheck disable=SC2086 # EF_DIGEST_FLAGS is a list of flags
+  "$bin" run --quiet --out "$work/$name" "$@" ${EF_DIGEST_FLAGS:-} >"$work/$name.log" 2>&1 || {
     echo "output_digests: run $name failed (exit $?):" >&2
     cat "$work/$name.log" >&2
     exit 1

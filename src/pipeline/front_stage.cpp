@@ -36,7 +36,6 @@ Status FrontStage::allocate(PreparedFrame& slot) const {
   auto pre = slam_.make_preprocessor();
   if (!pre.ok()) return pre.take_error();
   slot.pre.emplace(std::move(*pre));
-  if (semantics_ != nullptr) semantics_->allocate(slot.cnn);
   return Status::success();
 }
 
@@ -49,6 +48,10 @@ FrontStage::Step FrontStage::end(PreparedFrame& slot, std::optional<Error> error
   slot.error = std::move(error);
   slot.number = delivered_;
   ended_ = true;
+  if (cnn_request_) {  // a label update the CNN never got to
+    cnn_skipped_.fetch_add(1, std::memory_order_relaxed);
+    cnn_request_ = false;
+  }
   if (capture_ != nullptr) capture_->stop();  // joins: the camera is released as soon as possible
   return Step::kEnd;
 }
@@ -67,7 +70,7 @@ void FrontStage::pace(double timestamp) {
 FrontStage::Step FrontStage::step(PreparedFrame& slot) {
   slot.end = false;
   slot.error.reset();
-  slot.cnn.valid = false;
+  slot.cnn_wait = false;
   if (ended_) return end(slot, std::nullopt);
   if (run_.frames >= 0 && delivered_ >= run_.frames) return end(slot, std::nullopt);
 
@@ -106,15 +109,27 @@ FrontStage::Step FrontStage::step(PreparedFrame& slot) {
   slot.preprocess_ms = ms_since(t0);
   if (!s.ok()) return end(slot, s.error());
   ++delivered_;
+  if (cnn_ != nullptr) request_cnn(slot);
   return Step::kFrame;
 }
 
-void FrontStage::segment(PreparedFrame& slot) {
-  slot.cnn.valid = false;
-  if (slot.end || semantics_ == nullptr || !semantics_->cnn_due(slot.number)) return;
-  if (Status s = semantics_->segment(slot.working, slot.cnn); !s.ok()) {
-    slot.end = true;
-    slot.error = s.error();
+void FrontStage::request_cnn(PreparedFrame& slot) {
+  const int64_t n = slot.number;
+  const bool update = semantics_->fusion_due(n), image = semantics_->image_due(n);
+  if (deterministic_) {
+    if (update || image) slot.cnn_wait = cnn_->offer(slot.working, n, update, /*wait=*/true);
+    return;
+  }
+  if (update) {
+    if (cnn_request_) cnn_skipped_.fetch_add(1, std::memory_order_relaxed);
+    cnn_request_ = true;
+  }
+  if (image) {
+    // A label image needs this frame's own result: queued even if that waits.
+    slot.cnn_wait = cnn_->offer(slot.working, n, cnn_request_, /*wait=*/true);
+    if (slot.cnn_wait) cnn_request_ = false;
+  } else if (cnn_request_ && cnn_->offer(slot.working, n, /*fuse=*/true, /*wait=*/false)) {
+    cnn_request_ = false;
   }
 }
 

@@ -6,16 +6,20 @@
 //                 --realtime); stops after max_frames
 //   resample      to the working resolution (io/frame_resample.h)
 //   preprocess    depth filter and pyramids (slam/preprocess.h), with the slot's own Preprocessor
-//   segment       segment(): the CNN on the frames RunSemantics::cnn_due() names
-//                 (pipeline/run_semantics.h), on the front thread or a thread of its own
+//   CNN request   the frame handed to the CNN (pipeline/cnn_worker.h) on the frames a label update
+//                 or a label image is due (RunSemantics::fusion_due / image_due). A label image, and
+//                 every due frame of a deterministic run (pipeline.deterministic, or one thread), is
+//                 queued even if that waits for a free job, and the mapping waits for its result.
+//                 Otherwise a label update waits for the CNN to be free: the next frame it is free
+//                 on is taken; a request still waiting when the next one falls due is counted as
+//                 skipped (cnn_frames_skipped).
 //
 // The result is a PreparedFrame slot; the mapping stage takes it from there. Because nothing here
 // reads the map, these steps can run ahead of mapping on other threads, and the outputs are the
 // same as when every step takes its turn on one thread.
 //
-// Memory: allocate() sizes a slot once (working frame, pyramids, CNN result); step() and segment()
-// allocate nothing. Threads: step() on one thread at a time, segment() on one thread at a time (the
-// same or another); request_stop() and the counters from any thread.
+// Memory: allocate() sizes a slot once (working frame, pyramids); step() allocates nothing.
+// Threads: step() on one thread at a time; request_stop() and the counters from any thread.
 #pragma once
 
 #include <atomic>
@@ -25,6 +29,7 @@
 #include <optional>
 
 #include "pipeline/capture_thread.h"
+#include "pipeline/cnn_worker.h"
 #include "core/frame.h"
 #include "core/result.h"
 #include "io/frame_source.h"
@@ -40,20 +45,19 @@ struct PreparedFrame {
   int64_t number = -1;                    // 0-based count of the frames the front stage delivered
   Frame working;                          // the frame at the working resolution
   std::optional<slam::Preprocessor> pre;  // its pyramids: SurfelSlam::process(working, *pre, ...)
-  CnnResult cnn;                          // the CNN's result, on the frames it ran on (cnn.valid)
+  bool cnn_wait = false;                  // the CNN has this frame queued; mapping waits for its result
   double source_ms = 0;                   // getting the frame (decoding, or waiting for the camera)
   double resample_ms = 0;                 // milliseconds each
   double preprocess_ms = 0;
   bool end = false;                       // no frame: the stream ended, the stage was stopped or
   std::optional<Error> error;             // max_frames reached (error empty), or the source failed
 
-  // Bytes of one slot: the working frame, its preprocessor and the CNN result.
-  std::size_t bytes() const { return working.bytes() + (pre ? pre->bytes() : 0) + cnn.bytes(); }
-  // What FrontStage::allocate() sizes: a working frame (with labels when the source has them),
-  // `preprocessor_bytes` (slam::Preprocessor::bytes_for) and `cnn_result_bytes` (0 without labels).
-  static std::size_t bytes_for(int working_width, int working_height, bool with_labels, std::size_t preprocessor_bytes,
-                               std::size_t cnn_result_bytes) {
-    return Frame::bytes_for(working_width, working_height, with_labels) + preprocessor_bytes + cnn_result_bytes;
+  // Bytes of one slot: the working frame and its preprocessor.
+  std::size_t bytes() const { return working.bytes() + (pre ? pre->bytes() : 0); }
+  // What FrontStage::allocate() sizes: a working frame (with labels when the source has them) and
+  // `preprocessor_bytes` (slam::Preprocessor::bytes_for).
+  static std::size_t bytes_for(int working_width, int working_height, bool with_labels, std::size_t preprocessor_bytes) {
+    return Frame::bytes_for(working_width, working_height, with_labels) + preprocessor_bytes;
   }
 };
 
@@ -84,9 +88,14 @@ class FrontStage {
     kEnd,         // `slot` is the end marker (slot.end; slot.error when the source failed)
   };
   Step step(PreparedFrame& slot);
-  // The CNN on `slot` when its frame is due (nothing for an end marker or without labels). A failure
-  // turns the slot into an end marker carrying the error, so that mapping stops there.
-  void segment(PreparedFrame& slot);
+  // Where the CNN requests go (null: no labels); deterministic: every due frame waits (see above).
+  // Set once before the first step().
+  void set_cnn(CnnWorker* cnn, bool deterministic) {
+    cnn_ = cnn;
+    deterministic_ = deterministic;
+  }
+  // Label updates the CNN was too busy to take (see above).
+  uint64_t cnn_skipped() const { return cnn_skipped_.load(std::memory_order_relaxed); }
 
   // Asks the stage to end: a live camera's capture thread stops, and the frames it had already
   // captured still come out before the end marker; a recording ends at the next step(). Any thread.
@@ -106,12 +115,17 @@ class FrontStage {
       : run_(run), pipeline_(pipeline), source_(source), slam_(slam), semantics_(semantics) {}
   Step end(PreparedFrame& slot, std::optional<Error> error);
   void pace(double timestamp);
+  void request_cnn(PreparedFrame& slot);
 
   const RunOptions run_;
   const PipelineOptions pipeline_;
   FrameSource& source_;
   const slam::SurfelSlam& slam_;
   RunSemantics* semantics_;
+  CnnWorker* cnn_ = nullptr;
+  bool deterministic_ = false;
+  bool cnn_request_ = false;  // a label update is due and the CNN has not taken a frame for it yet
+  std::atomic<uint64_t> cnn_skipped_{0};
   std::unique_ptr<CaptureThread> capture_;  // live sources only
   Frame input_;                             // a recording's frame at its own size
   std::atomic<bool> stop_{false};

@@ -34,8 +34,7 @@ Status MappingStage::step(const PreparedFrame& slot) {
   stats_.record_ms(st_.source, slot.source_ms);
   stats_.record_ms(st_.resample, slot.resample_ms);
   stats_.record_ms(st_.preprocess, slot.preprocess_ms);
-  stats_.record_ms(st_.front, slot.source_ms + slot.resample_ms + slot.preprocess_ms +
-                                  (slot.cnn.valid ? slot.cnn.segment_ms : 0.0));
+  stats_.record_ms(st_.front, slot.source_ms + slot.resample_ms + slot.preprocess_ms);
 
   const Frame& frame = slot.working;
   EF_RETURN_IF_ERROR(slam_.process(frame, *slot.pre, &result_));
@@ -43,7 +42,8 @@ Status MappingStage::step(const PreparedFrame& slot) {
   if (result_.fused) stats_.record_ms(st_.fuse, result_.timings.fuse_ms);
   if (result_.fused) stats_.record_ms(st_.predict, result_.timings.predict_ms);
   stats_.record_ms(st_.slam, result_.timings.total_ms);
-  if (semantics_ != nullptr) EF_RETURN_IF_ERROR(semantics_->on_frame(slot.number, frame, slot.cnn, result_, slam_));
+  if (semantics_ != nullptr && cnn_ != nullptr)
+    EF_RETURN_IF_ERROR(semantics_->on_frame(slot.number, frame, slot.cnn_wait, result_, slam_, *cnn_));
 
   if (result_.lost) {
     std::snprintf(line_, sizeof line_, "lost %.6f %s", frame.timestamp,
@@ -59,6 +59,11 @@ Status MappingStage::step(const PreparedFrame& slot) {
   ++frames_;
   stats_.record_ms(st_.mapping, ms_since(t_start));
   return Status::success();
+}
+
+Status MappingStage::drain_cnn() {
+  if (semantics_ == nullptr || cnn_ == nullptr) return Status::success();
+  return semantics_->drain(frames_ - 1, slam_, *cnn_);
 }
 
 }  // namespace ef::pipeline

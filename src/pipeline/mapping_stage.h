@@ -2,12 +2,12 @@
 // writes the map, in frame order, on one thread:
 //
 //   track + fuse + predict   SurfelSlam::process with the pyramids the front stage made
-//   labels                   the frame's CNN result fused at the frame's pose, the CRF when due,
-//                            the label image when due (RunSemantics::on_frame)
+//   labels                   the CNN results that are done fused, each at its own frame's pose, the
+//                            CRF when due, the label image when due (RunSemantics::on_frame)
 //   trajectory               the frame's pose line (and '# lost ...' before it when lost)
 //
-// and it records the times of the front and segment steps too into StageStats (they travel in the
-// slot, so StageStats is only ever written by this thread).
+// and it records the times of the front step and the CNN too into StageStats (they travel in the
+// slot and the CNN's job, so StageStats is only ever written by this thread).
 //
 // Memory: create() allocates the SLAM (pool, pyramids, index map) and registers the stages;
 // step() allocates nothing. Threads: one thread at a time.
@@ -45,9 +45,13 @@ class MappingStage {
   // The options create() gives the SLAM.
   static slam::SurfelSlamOptions slam_options(const slam::SurfelSlamOptions& options);
 
+  // The CNN whose results on_frame() fuses (null without labels). Set once before the first step().
+  void set_cnn(CnnWorker* cnn) { cnn_ = cnn; }
   // Maps one prepared frame (not an end marker). Errors: the SLAM's, the labels', a failed write of
   // the trajectory; the map keeps every frame mapped before.
   Status step(const PreparedFrame& slot);
+  // After the last frame: the CNN's results still in flight fused (RunSemantics::drain).
+  Status drain_cnn();
 
   slam::SurfelSlam& slam() { return slam_; }
   const slam::SurfelSlam& slam() const { return slam_; }
@@ -63,6 +67,7 @@ class MappingStage {
   slam::SurfelSlam slam_;
   StageStats& stats_;
   RunSemantics* semantics_;
+  CnnWorker* cnn_ = nullptr;
   TumTrajectoryWriter trajectory_;
   slam::SlamFrameResult result_;
   int64_t frames_ = 0;

@@ -12,6 +12,7 @@
 #include "nn/model_format.h"
 #include "nn/planner.h"
 #include "pipeline/capture_thread.h"
+#include "pipeline/cnn_worker.h"
 #include "pipeline/final_labels.h"
 #include "pipeline/front_stage.h"
 #include "pipeline/mapping_stage.h"
@@ -138,6 +139,12 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
         "16 bytes per CNN pixel + a pair per index cell at the largest scale (" +
             std::to_string(slam::kMaxIndexScale) + "x)");
     cnn_result = CnnResult::bytes_for(int(out.w), int(out.h), int(out.c), w, h);
+    add("cnn jobs", size_t(CnnWorker::kJobs) * CnnJob::bytes_for(w, h, cnn_result),
+        std::to_string(CnnWorker::kJobs) + " x (working frame " + size_text(w, h) + " without labels + CNN result " +
+            size_text(int(out.w), int(out.h)) + " x " + std::to_string(out.c) + " floats + class ids)");
+    add("late label fusion", RunSemantics::late_fusion_bytes_for(w, h, slam.prediction),
+        "an index map renderer for CNN results that finish after their frame, " +
+            std::to_string(RunSemantics::kPoseHistory) + " poses");
     add("label rendering", RunSemantics::rendering_bytes_for(w, h), "the map's labels, " + size_text(w, h) + " x 1 byte");
     add("map.ply class columns", RunSemantics::class_column_bytes_for(sem.pool_capacity),
         "5 bytes (class id, probability) x capacity");
@@ -156,14 +163,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
     }
   }
 
-  // Prepared frames (pipeline/front_stage.h): per slot the working frame, its preprocessor and,
-  // with labels, the CNN's result.
+  // Prepared frames (pipeline/front_stage.h): per slot the working frame and its preprocessor.
   const int slots = config.pipeline.slots();
   add("prepared frames",
-      size_t(slots) * PreparedFrame::bytes_for(w, h, probe.has_labels, slam::Preprocessor::bytes_for(w, h, slam.preprocess),
-                                               cnn_result),
-      std::to_string(slots) + " slots x (working frame " + size_text(w, h) + " + pyramids" +
-          (labels ? " + CNN result" : "") + ")");
+      size_t(slots) * PreparedFrame::bytes_for(w, h, probe.has_labels, slam::Preprocessor::bytes_for(w, h, slam.preprocess)),
+      std::to_string(slots) + " slots x (working frame " + size_text(w, h) + " + pyramids)");
 
   for (const MemoryPart& p : plan.parts) plan.total_bytes += p.bytes;
   plan.budget_bytes = static_cast<size_t>(config.memory.budget_mb) * 1'000'000;

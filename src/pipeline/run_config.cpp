@@ -63,15 +63,18 @@ const opt::Table<PipelineOptions>& PipelineOptions::table() {
   constexpr opt::Range kCore = opt::between(0, 1023).or_value(-1, "not pinned");
   static const opt::Table<PipelineOptions> t = {
       {"threads", "threads", "--threads", &PipelineOptions::threads, "", opt::between(1, 3),
-       "1 = front (read, resample, preprocess), CNN and mapping take turns on one thread; 2 = front + CNN beside "
-       "mapping; 3 = each on its own thread; the outputs are the same"},
+       "1 = front (read, resample, preprocess), CNN and mapping take turns on one thread; 2 = front and the CNN "
+       "on one core beside mapping; 3 = each on its own; the geometry is the same in every mode"},
+      {"deterministic", "deterministic", "--deterministic", &PipelineOptions::deterministic, "", opt::any(),
+       "the CNN takes exactly every label_every-th frame and mapping waits for its result: outputs that do not "
+       "depend on timing (those of threads 1); false = the CNN never holds the mapper back"},
       {"prepared_slots", "", "", &PipelineOptions::prepared_slots, "frames", opt::between(2, 16),
-       "how many frames are in flight between front, CNN and mapping"},
+       "how many frames are in flight between front and mapping"},
       {"capture_slots", "", "", &PipelineOptions::capture_slots, "frames", opt::between(2, 64),
        "live cameras: how many frames wait between capture and the front step (full: the oldest is dropped, "
        "counted)"},
       {"front_cpu", "", "", &PipelineOptions::front_cpu, "", kCore, "CPU core the front step's thread is pinned to"},
-      {"cnn_cpu", "", "", &PipelineOptions::cnn_cpu, "", kCore, "CPU core the CNN's thread (threads: 3) is pinned to"},
+      {"cnn_cpu", "", "", &PipelineOptions::cnn_cpu, "", kCore, "CPU core the CNN's thread is pinned to with threads 3 (with 2 it shares front_cpu)"},
       {"mapping_cpu", "", "", &PipelineOptions::mapping_cpu, "", kCore, "CPU core the mapping thread is pinned to"},
       {"capture_cpu", "", "", &PipelineOptions::capture_cpu, "", kCore,
        "CPU core a live camera's capture thread is pinned to"},

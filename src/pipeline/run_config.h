@@ -78,12 +78,15 @@ struct CrfOptions {
   bool on() const { return every > 0 || final; }
 };
 
-// Threads of the pipeline (pipeline/run_pipeline.h). The outputs are the same in every mode.
+// Threads of the pipeline (pipeline/run_pipeline.h).
 struct PipelineOptions {
   // 1: every step (front: read, resample, preprocess; the CNN; mapping) takes its turn on one
-  // thread (deterministic order); 2: front and CNN on one thread, mapping on another; 3: front, CNN
-  // and mapping each on its own. A live camera always has its capture thread too.
+  // thread (deterministic order); 2: front and the CNN's thread on one core, mapping on another;
+  // 3: front, CNN and mapping each on its own. A live camera always has its capture thread too.
   int threads = 2;
+  // The CNN takes exactly every due frame and mapping waits for each result at its own frame: the
+  // outputs do not depend on timing (those of threads 1), and the mapping rate includes the CNN's.
+  bool deterministic = false;
   int prepared_slots = 3;  // frames in flight between the steps; a step waits, nothing is dropped
   int capture_slots = 4;   // live cameras: frames between capture and the front step; full: the
                            // oldest waiting frame is dropped and counted
@@ -91,6 +94,8 @@ struct PipelineOptions {
   int cnn_cpu = -1;
   int mapping_cpu = -1;
   int capture_cpu = -1;
+  // Tests only (no key): milliseconds the CNN sleeps before each frame, a slow network.
+  double test_cnn_delay_ms = 0;
 
   static const opt::Table<PipelineOptions>& table();
   Status validate() const;

@@ -20,8 +20,9 @@ namespace {
 // again, and how long the front thread waits for a free slot before it looks at its own.
 constexpr std::chrono::milliseconds kPoll(200);
 
-// The steps every prepared slot passes through, in order (StageRing stages).
-constexpr int kFront = 0, kSegment = 1, kMapping = 2, kStages = 3;
+// The steps every prepared slot passes through, in order (StageRing stages). The CNN is beside
+// them (pipeline/cnn_worker.h).
+constexpr int kFront = 0, kMapping = 1, kStages = 2;
 
 // The process's peak resident memory so far, bytes (Linux reports kilobytes).
 double peak_rss_bytes() {
@@ -56,6 +57,15 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   auto front = FrontStage::create(config.run, config.pipeline, source, p->mapping_->slam(), p->semantics_.get());
   if (!front.ok()) return front.take_error();
   p->front_ = std::move(*front);
+  if (p->semantics_ != nullptr) {
+    const bool threaded = config.pipeline.threads >= 2;
+    auto cnn = CnnWorker::create(*p->semantics_, config.run.resolution.width, config.run.resolution.height, threaded,
+                                 config.pipeline.test_cnn_delay_ms);
+    if (!cnn.ok()) return cnn.take_error();
+    p->cnn_ = std::move(*cnn);
+    p->front_->set_cnn(p->cnn_.get(), /*deterministic=*/config.pipeline.deterministic || !threaded);
+    p->mapping_->set_cnn(p->cnn_.get());
+  }
 
   // The slots, each sized once; one when a single thread takes every step in turn.
   Status slot_status;
@@ -69,7 +79,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   p->c_ = CounterIds{stats.add_counter("camera_lost"),     stats.add_counter("corrupt_frames_dropped"),
                      stats.add_counter("frames_dropped_overload"), stats.add_counter("surfels_created"),
                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
-                     stats.add_counter("surfels_refused")};
+                     stats.add_counter("surfels_refused"), stats.add_counter("cnn_frames_skipped")};
   return p;
 }
 
@@ -105,7 +115,7 @@ void RunPipeline::check_stop(RunObserver& observer, RunOutcome& outcome) {
   front_->request_stop();  // drains: every frame captured or prepared is still mapped
 }
 
-void RunPipeline::front_loop(bool with_segment) {
+void RunPipeline::front_loop() {
   StageRing<PreparedFrame>& ring = *ring_;
   while (true) {
     PreparedFrame* slot = ring.acquire(kFront, kPoll);
@@ -115,27 +125,8 @@ void RunPipeline::front_loop(bool with_segment) {
     }
     // kNothingYet: the same slot again (a live camera had nothing within the poll time).
     if (front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
-    ring.release(kFront);
-    if (with_segment) {
-      if (ring.acquire(kSegment, kPoll) != slot) return;  // closed (it is next in line otherwise)
-      front_->segment(*slot);
-      ring.release(kSegment);
-    }
-    if (slot->end) return;
-  }
-}
-
-void RunPipeline::segment_loop() {
-  StageRing<PreparedFrame>& ring = *ring_;
-  while (true) {
-    PreparedFrame* slot = ring.acquire(kSegment, kPoll);
-    if (slot == nullptr) {
-      if (ring.closed()) return;
-      continue;
-    }
-    front_->segment(*slot);
     const bool end = slot->end;
-    ring.release(kSegment);
+    ring.release(kFront);
     if (end) return;
   }
 }
@@ -146,29 +137,22 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
   pin_current_thread_or_warn(config_.pipeline.mapping_cpu, "mapping");
   front_->start_capture();
   StageRing<PreparedFrame>& ring = *ring_;
-  std::thread front_thread, segment_thread;
+  std::thread front_thread;
   if (config_.pipeline.threads >= 2) {
     front_thread = std::thread([this] {
       pin_current_thread_or_warn(config_.pipeline.front_cpu, "front stage");
-      front_loop(/*with_segment=*/config_.pipeline.threads == 2);
+      front_loop();
     });
   }
-  if (config_.pipeline.threads == 3) {
-    segment_thread = std::thread([this] {
-      pin_current_thread_or_warn(config_.pipeline.cnn_cpu, "CNN");
-      segment_loop();
-    });
-  }
+  // The CNN's thread: on the front's core with two threads, on its own with three.
+  if (cnn_ != nullptr) cnn_->start(config_.pipeline.threads == 3 ? config_.pipeline.cnn_cpu : config_.pipeline.front_cpu);
   while (true) {
     check_stop(observer, outcome);
     if (config_.pipeline.threads == 1) {
-      // Every step in turn on this thread, on the ring's one slot.
+      // Every step in turn on this thread, on the ring's one slot (the CNN runs inside the front step).
       PreparedFrame* slot = ring.acquire(kFront, kPoll);
       if (slot == nullptr || front_->step(*slot) == FrontStage::Step::kNothingYet) continue;
       ring.release(kFront);
-      ring.acquire(kSegment, kPoll);  // `slot` again: the one slot, just released by the front step
-      front_->segment(*slot);
-      ring.release(kSegment);
     }
     PreparedFrame* slot = ring.acquire(kMapping, kPoll);
     if (slot == nullptr) continue;  // the front step always ends with an end slot
@@ -177,11 +161,17 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
     if (!more) break;
   }
   // Ended (the end slot, or an error): the camera stops, and threads still waiting or working on
-  // later slots give up.
+  // later slots give up. The CNN's results for mapped frames are still fused.
   front_->request_stop();
   ring.close();
   if (front_thread.joinable()) front_thread.join();
-  if (segment_thread.joinable()) segment_thread.join();
+  if (cnn_ != nullptr) {
+    if (!outcome.error) {
+      if (Status s = mapping_->drain_cnn(); !s.ok()) outcome.error = s.error();
+    }
+    cnn_->close();
+    stats_.set_counter(c_.cnn_skipped, front_->cnn_skipped());
+  }
   outcome.frames = mapping_->frames();
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   stats_.set_counter(c_.dropped_overload, front_->dropped_overload());

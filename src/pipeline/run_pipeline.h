@@ -2,23 +2,28 @@
 //
 //   capture thread   live cameras only: source -> capture ring (pipeline.capture_slots, drop-oldest,
 //                    counted as frames_dropped_overload); a camera is never held up by mapping
-//   front            next frame -> resample -> preprocess (pipeline/front_stage.h)
-//   segment          the CNN every label_every-th frame, into the frame's slot
-//   mapping          track + fuse + predict, labels fused at the frame's pose, CRF, label images,
-//                    trajectory line (pipeline/mapping_stage.h); then the observer (LED,
-//                    progress line) and its stop requests (signals, the button)
+//   front            next frame -> resample -> preprocess (pipeline/front_stage.h); hands the
+//                    frames a label update or a label image is due on to the CNN
+//   CNN              the network beside the pipeline on a thread of its own (pipeline/cnn_worker.h):
+//                    it takes a frame when it is free, and the mapping never waits for it
+//                    (except for a label image's frame, and in a deterministic run)
+//   mapping          track + fuse + predict, the CNN results that are done fused each at its own
+//                    frame's pose, CRF, label images, trajectory line (pipeline/mapping_stage.h);
+//                    then the observer (LED, progress line) and its stop requests (signals, the button)
 //   outputs          write_outputs(): trajectory closed, final CRF, map.ply, stats.json
 //
-// The three steps share a StageRing (core/stage_ring.h) of pipeline.prepared_slots PreparedFrame
+// Front and mapping share a StageRing (core/stage_ring.h) of pipeline.prepared_slots PreparedFrame
 // slots, which every frame passes through in order; a step waits for its predecessor, nothing is
 // dropped after capture. pipeline.threads says how the steps map onto threads:
-//   1  front, segment and mapping take turns on the calling thread (one slot; deterministic)
-//   2  front + segment on one thread, mapping on the calling thread (the default)
-//   3  front, segment and mapping each on a thread (a board with cores to spare: the CNN's time
-//      then overlaps both)
-// The outputs are identical in every mode, because neither front nor segment reads anything mapping
-// writes: segmentation needs no pose, so the CNN runs before its frame is tracked and its result is
-// fused with that frame's pose once mapping has it. Each thread is pinned to its configured core.
+//   1  front, CNN and mapping take turns on the calling thread (one slot; the CNN runs on every
+//      due frame and its result is fused at once: deterministic)
+//   2  front on one thread with the CNN's thread on the same core, mapping on the calling thread
+//      (the default)
+//   3  front, CNN and mapping each on their own core
+// With 2 or 3 threads the labels depend on when the CNN finishes, unless pipeline.deterministic:
+// then the CNN takes exactly the due frames and the mapping waits for each result at its frame,
+// and the outputs are those of one thread. The geometry never depends on the CNN. Each thread is
+// pinned to its configured core.
 //
 // Ending: the source's end, max_frames, a source or CNN error, a mapping error, or the observer's
 // stop request. A stop request drains the pipeline: the capture thread stops taking frames and every
@@ -38,6 +43,7 @@
 #include "core/stage_ring.h"
 #include "core/result.h"
 #include "core/stage_stats.h"
+#include "pipeline/cnn_worker.h"
 #include "pipeline/final_labels.h"
 #include "pipeline/front_stage.h"
 #include "io/frame_source.h"
@@ -111,21 +117,21 @@ class RunPipeline {
   // The observer's stop request, passed on to the front stage once.
   void check_stop(RunObserver& observer, RunOutcome& outcome);
   // The loop of a thread that runs the front step (and the segment step when `with_segment`).
-  void front_loop(bool with_segment);
-  void segment_loop();
+  void front_loop();
 
   const RunConfig config_;
   FrameSource& source_;
   StageStats& stats_;
   std::unique_ptr<RunSemantics> semantics_;
+  std::unique_ptr<CnnWorker> cnn_;  // with labels
   std::unique_ptr<MappingStage> mapping_;
   std::unique_ptr<FrontStage> front_;
-  std::unique_ptr<StageRing<PreparedFrame>> ring_;  // front -> segment -> mapping
+  std::unique_ptr<StageRing<PreparedFrame>> ring_;  // front -> mapping
   std::size_t slot_bytes_ = 0;
   bool stop_sent_ = false;
   struct CounterIds {
     int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,
-        surfels_refused;
+        surfels_refused, cnn_skipped;
   } c_{};
 };
 

@@ -5,8 +5,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
+#include <thread>
 
 #include "io/label_image.h"
+#include "pipeline/cnn_worker.h"
 #include "pipeline/model_paths.h"
 #include "semantic/label_render.h"
 #include "semantic/label_store.h"
@@ -20,6 +22,7 @@ SemanticsOptions semantics_options(const RunConfig& config) {
   o.crf = config.crf;
   o.dense_crf = crf_options_for_run(config);
   o.pool_capacity = config.mapping.pool.capacity;
+  o.prediction = config.mapping.prediction;
   return o;
 }
 
@@ -39,6 +42,12 @@ semantic::LabelFusionOptions RunSemantics::fusion_options(const SemanticsOptions
   o.cnn_width = cnn_width;
   o.cnn_height = cnn_height;
   return o;
+}
+
+std::size_t RunSemantics::late_fusion_bytes_for(int working_width, int working_height,
+                                                const slam::PredictionOptions& prediction) {
+  return slam::ModelPredictor::bytes_for(working_width, working_height, 1, prediction) +
+         std::size_t(kPoseHistory) * sizeof(PoseRecord);
 }
 
 std::size_t RunSemantics::class_column_bytes_for(int64_t pool_capacity) {
@@ -81,6 +90,11 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOption
     s->crf_ = std::make_unique<semantic::DenseCrf>(std::move(*crf));
   }
 
+  auto view = slam::ModelPredictor::create(working, 1, options.prediction);
+  if (!view.ok()) return view.take_error();
+  s->label_view_.emplace(std::move(*view));
+  s->poses_.assign(kPoseHistory, PoseRecord{});
+
   s->rendered_.allocate(working.width, working.height);
   s->class_id_.assign(static_cast<std::size_t>(options.pool_capacity), 0);
   s->class_prob_.assign(static_cast<std::size_t>(options.pool_capacity), 0.0f);
@@ -104,6 +118,8 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOption
   s->c_label_images_ = stats.add_counter("label_images_written");
   s->c_crf_runs_ = stats.add_counter("crf_runs");
   s->c_crf_left_out_ = stats.add_counter("crf_surfels_left_out");
+  s->c_late_ = stats.add_counter("cnn_results_late");
+  s->c_unfused_ = stats.add_counter("cnn_results_unfused");
   return s;
 }
 
@@ -123,8 +139,10 @@ std::string RunSemantics::describe() const {
   return o.str();
 }
 
-bool RunSemantics::cnn_due(int64_t frame_number) const {
-  return fusion_->due(frame_number) || (!options_.labels.out.empty() && frame_number % options_.labels.out_every == 0);
+bool RunSemantics::fusion_due(int64_t frame_number) const { return fusion_->due(frame_number); }
+
+bool RunSemantics::image_due(int64_t frame_number) const {
+  return !options_.labels.out.empty() && frame_number % options_.labels.out_every == 0;
 }
 
 void RunSemantics::allocate(CnnResult& out) const {
@@ -150,31 +168,99 @@ Status RunSemantics::segment(const Frame& working, CnnResult& out) {
   return Status::success();
 }
 
-Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, const CnnResult& cnn,
-                              const slam::SlamFrameResult& result, slam::SurfelSlam& slam) {
-  const bool fuse_now = !result.lost && fusion_->due(frame_number);
-  const bool write_now = !options_.labels.out.empty() && frame_number % options_.labels.out_every == 0;
-  if ((fuse_now || write_now) && !cnn.valid)
-    return error(ErrorCode::kInvalidArgument,
-                 "labels: frame " + std::to_string(frame_number) + " needs the CNN's result and has none");
-  if (cnn.valid) {
-    stats_->record_ms(st_segment_, cnn.segment_ms);  // measured on the front stage
-    stats_->increment(c_cnn_frames_);
+Status RunSemantics::fuse_job(const CnnJob& job, int64_t now, const Frame* working,
+                              const slam::SlamFrameResult* result, slam::SurfelSlam& slam) {
+  const slam::IndexMap* map = nullptr;
+  ImageView<const float> depth;
+  SE3 pose;
+  if (job.number == now) {
+    // This frame's own result: the index map SLAM has just rendered at its pose.
+    if (result->lost) {
+      stats_->increment(c_unfused_);
+      return Status::success();
+    }
+    map = &slam.predictor().index_map();
+    depth = working->depth.view();
+    pose = result->T_world_cam;
+  } else {
+    // A result that came after its frame was mapped: the map as it is now, seen from that frame's pose.
+    const PoseRecord& p = poses_[std::size_t(job.number % kPoseHistory)];
+    if (p.frame != job.number || p.lost) {
+      stats_->increment(c_unfused_);
+      return Status::success();
+    }
+    label_view_->render_index_map(slam.pool(), p.T_world_cam);
+    map = &label_view_->index_map();
+    depth = job.frame.depth.view();
+    pose = p.T_world_cam;
+    stats_->increment(c_late_);
   }
-  if (fuse_now) {
-    ScopedStageTimer t(*stats_, st_fuse_);
-    auto counts = fusion_->fuse(slam.predictor().index_map(), cnn.view(), slam.pool_for_labels(),
-                                visible_depth(working.depth.view()));
-    if (!counts.ok()) return counts.take_error();
-    stats_->increment(c_surfel_updates_, static_cast<uint64_t>(counts->surfels_updated));
-    stats_->increment(c_hidden_, static_cast<uint64_t>(counts->hidden_skipped));
-    stats_->increment(c_no_depth_, static_cast<uint64_t>(counts->no_depth_skipped));
-  }
-  if (crf_ != nullptr && options_.crf.every > 0 && frame_number > 0 && frame_number % options_.crf.every == 0) {
-    EF_RETURN_IF_ERROR(run_crf(slam));
-  }
-  if (write_now) EF_RETURN_IF_ERROR(write_rendering(working, cnn, result, slam));
+  ScopedStageTimer t(*stats_, st_fuse_);
+  auto counts = fusion_->fuse(*map, job.cnn.view(), slam.pool_for_labels(), visible_depth(depth));
+  if (!counts.ok()) return counts.take_error();
+  stats_->increment(c_surfel_updates_, static_cast<uint64_t>(counts->surfels_updated));
+  stats_->increment(c_hidden_, static_cast<uint64_t>(counts->hidden_skipped));
+  stats_->increment(c_no_depth_, static_cast<uint64_t>(counts->no_depth_skipped));
+  last_fused_ = FusedResult{job.number, now, pose};
   return Status::success();
+}
+
+Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, bool wait_for_this,
+                              const slam::SlamFrameResult& result, slam::SurfelSlam& slam, CnnWorker& worker) {
+  poses_[std::size_t(frame_number % kPoseHistory)] = PoseRecord{frame_number, result.T_world_cam, result.lost};
+  CnnJob* own = nullptr;  // this frame's result, kept for its label image
+  int64_t wait_for = wait_for_this ? frame_number : -1;
+  Status status;
+  while (CnnJob* job = worker.take(frame_number, wait_for)) {
+    wait_for = -1;
+    if (job->error) {
+      status = *job->error;
+      worker.release(job);
+      break;
+    }
+    stats_->record_ms(st_segment_, job->cnn.segment_ms);  // measured on the CNN's thread
+    stats_->increment(c_cnn_frames_);
+    if (job->fuse) status = fuse_job(*job, frame_number, &working, &result, slam);
+    if (job->number == frame_number && status.ok()) {
+      own = job;
+      continue;
+    }
+    worker.release(job);
+    if (!status.ok()) break;
+  }
+  if (status.ok() && crf_ != nullptr && options_.crf.every > 0 && frame_number > 0 &&
+      frame_number % options_.crf.every == 0)
+    status = run_crf(slam);
+  if (status.ok() && image_due(frame_number)) {
+    if (own == nullptr)
+      status = error(ErrorCode::kInvalidArgument,
+                     "labels: frame " + std::to_string(frame_number) + " needs the CNN's result and has none");
+    else
+      status = write_rendering(working, own->cnn, result, slam);
+  }
+  if (own != nullptr) worker.release(own);
+  return status;
+}
+
+Status RunSemantics::drain(int64_t last_frame, slam::SurfelSlam& slam, CnnWorker& worker) {
+  while (true) {
+    const bool more = worker.pending(last_frame);
+    CnnJob* job = worker.take(last_frame, -1);
+    if (job == nullptr) {
+      if (!more) return Status::success();
+      // Wait for the job still running: take() waits for a given frame, so ask for the oldest one.
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      continue;
+    }
+    Status status = job->error ? Status(*job->error) : Status::success();
+    if (status.ok()) {
+      stats_->record_ms(st_segment_, job->cnn.segment_ms);
+      stats_->increment(c_cnn_frames_);
+      if (job->fuse) status = fuse_job(*job, last_frame + 1, nullptr, nullptr, slam);
+    }
+    worker.release(job);
+    if (!status.ok()) return status;
+  }
 }
 
 Status RunSemantics::run_crf(slam::SurfelSlam& slam) {

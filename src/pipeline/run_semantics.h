@@ -1,26 +1,33 @@
 // The semantic half of `edgefusion run` (SemanticFusion, McCormac et al. ICRA 2017), in two parts
 // that run on different threads of the pipeline (pipeline/run_pipeline.h):
-//   segment step, segment()      every label_every-th frame (and every frame whose label image is
-//                                due) the CNN segments the working frame (semantic/segmenter.h) into
-//                                a CnnResult that travels with the frame; segmentation needs no pose,
-//                                so it runs before the frame is tracked
-//   mapping step, on_frame()     after the surfel SLAM tracked the frame: its CNN probabilities
-//                                multiply into every surfel the new index map shows at the frame's
-//                                pose (semantic/label_fusion.h); lost frames are not fused;
+//   CNN, segment()               the network on a copy of a working frame (pipeline/cnn_worker.h:
+//                                on a thread of its own, or at once with one pipeline thread);
+//                                segmentation needs no pose, so it runs beside tracking
+//   mapping step, on_frame()     after the surfel SLAM tracked frame n: every CNN result that is done
+//                                for a frame up to n is fused at its own frame's pose: frame n's
+//                                through the index map SLAM rendered at n's pose, an earlier frame's
+//                                (the CNN finished late) through an index map rendered here at that
+//                                frame's pose; results of lost frames are not fused (counted);
+//                                the CNN probabilities multiply into every surfel the index map
+//                                shows (semantic/label_fusion.h);
 //                                every crf_every-th frame the dense CRF over the map (semantic/dense_crf.h);
 //                                every labels_out_every-th frame the map's labels rendered into the
 //                                frame's view, with the CNN's own prediction where no labelled surfel
 //                                is seen (semantic/label_render.h), written as DIR/<frame name>.png
-//   at the end, finish()         the CRF once more if crf_final; map.ply's class columns.
-// Memory: create() allocates everything (segmenter, fusion buffers, CRF lattice, the rendered image,
-// the class columns of map.ply); allocate() sizes each CnnResult slot once; segment() and on_frame()
-// allocate only inside libpng when a label image is written.
+//                                (those frames always wait for their CNN result)
+//   at the end, drain(), finish()  the results still in flight fused; the CRF once more if
+//                                crf_final; map.ply's class columns.
+// Memory: create() allocates everything (segmenter, fusion buffers, a predictor for late results'
+// index maps, the pose history, CRF lattice, the rendered image, the class columns of map.ply);
+// allocate() sizes each CnnResult once; segment() and on_frame() allocate only inside libpng when a
+// label image is written.
 // Threads: segment() uses only the segmenter and may run on one thread while on_frame() runs on
 // another; each of them on one thread at a time.
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,6 +45,9 @@
 
 namespace ef::pipeline {
 
+class CnnWorker;
+struct CnnJob;
+
 // What the semantics step takes of a run's configuration (semantics_options(config)).
 struct SemanticsOptions {
   LabelOptions labels;                  // the network and the label images
@@ -45,6 +55,7 @@ struct SemanticsOptions {
   CrfOptions crf;                       // when the dense CRF runs
   semantic::DenseCrfOptions dense_crf;  // sized for the pool (crf_options_for_run)
   int64_t pool_capacity = 0;            // surfels: map.ply's class columns
+  slam::PredictionOptions prediction;   // the mapping's: late results' index maps are rendered alike
 };
 SemanticsOptions semantics_options(const RunConfig& config);
 
@@ -85,24 +96,40 @@ class RunSemantics {
   // Bytes create() allocates besides the segmenter: the rendered image at the working size and
   // map.ply's class columns (5 bytes per surfel of capacity).
   static std::size_t rendering_bytes_for(int working_width, int working_height);
+  // Bytes of what late results need: the predictor that renders their index maps and the pose history.
+  static std::size_t late_fusion_bytes_for(int working_width, int working_height,
+                                           const slam::PredictionOptions& prediction);
+  // Poses of the last frames kept for late results; a result older than this is not fused (counted).
+  static constexpr int kPoseHistory = 256;
   // The label fusion create() makes: options.fusion for a working image of working_width x
   // working_height and a CNN output of cnn_width x cnn_height (also what the memory plan sizes).
   static semantic::LabelFusionOptions fusion_options(const SemanticsOptions& options, int working_width,
                                                      int working_height, int cnn_width, int cnn_height);
   static std::size_t class_column_bytes_for(int64_t pool_capacity);
 
-  // Segment step: whether the CNN runs on frame `frame_number` (0-based count of frames delivered):
-  // a label update or a label image is due.
-  bool cnn_due(int64_t frame_number) const;
+  // Whether frame `frame_number` is due for a label update (every label_every-th frame) and for a
+  // label image (every labels_out_every-th with labels.out set): the front stage's requests to the CNN.
+  bool fusion_due(int64_t frame_number) const;
+  bool image_due(int64_t frame_number) const;
   // Sizes `out` for this model and working size (start-up; allocates).
   void allocate(CnnResult& out) const;
-  // Segment step: segments `working` (the working size) into `out` (sized by allocate()).
+  // The CNN: segments `working` (the working size) into `out` (sized by allocate()).
   Status segment(const Frame& working, CnnResult& out);
 
-  // Mapping stage, after slam.process() of frame `frame_number`; `cnn` is that frame's result
-  // (valid on the frames cnn_due() named).
-  Status on_frame(int64_t frame_number, const Frame& working, const CnnResult& cnn,
-                  const slam::SlamFrameResult& result, slam::SurfelSlam& slam);
+  // Mapping stage, after slam.process() of frame `frame_number` (see the header). wait_for_this:
+  // the CNN has this frame queued and the mapping waits for its result (label images; deterministic runs).
+  Status on_frame(int64_t frame_number, const Frame& working, bool wait_for_this, const slam::SlamFrameResult& result,
+                  slam::SurfelSlam& slam, CnnWorker& worker);
+  // After the last mapped frame `last_frame`: waits for the CNN's results for frames up to it and
+  // fuses them at their poses.
+  Status drain(int64_t last_frame, slam::SurfelSlam& slam, CnnWorker& worker);
+  // The last result fused: its frame, the frame being mapped when it was fused, and the pose used
+  // (tests check that every result meets its own frame's pose).
+  struct FusedResult {
+    int64_t frame = -1, fused_at = -1;
+    SE3 T_world_cam;
+  };
+  const FusedResult& last_fused() const { return last_fused_; }
   // At the end of the run, before the map is written: the final CRF if asked for.
   Status finish(slam::SurfelSlam& slam);
   // Fills `view`'s class_id and class_prob columns from the pool's label store.
@@ -119,6 +146,15 @@ class RunSemantics {
   RunSemantics() = default;
   Status write_rendering(const Frame& working, const CnnResult& cnn, const slam::SlamFrameResult& result,
                          slam::SurfelSlam& slam);
+  // Fuses `job` (done, no error) while mapping frame `now`: at the current index map when it is
+  // that frame's, else through label_view_ rendered at its frame's pose.
+  Status fuse_job(const CnnJob& job, int64_t now, const Frame* working, const slam::SlamFrameResult* result,
+                  slam::SurfelSlam& slam);
+  struct PoseRecord {
+    int64_t frame = -1;
+    SE3 T_world_cam;
+    bool lost = true;
+  };
   Status run_crf(slam::SurfelSlam& slam);
 
   SemanticsOptions options_;
@@ -126,6 +162,9 @@ class RunSemantics {
   std::unique_ptr<semantic::Segmenter> segmenter_;
   std::unique_ptr<semantic::LabelFusion> fusion_;
   std::unique_ptr<semantic::DenseCrf> crf_;  // null when neither crf_every nor crf_final
+  std::optional<slam::ModelPredictor> label_view_;  // index maps of late results
+  std::vector<PoseRecord> poses_;            // kPoseHistory, by frame number modulo
+  FusedResult last_fused_;
   Image<uint8_t> rendered_;                  // the map's labels at the working size
   std::vector<uint8_t> class_id_;            // map.ply columns, one per pool slot
   std::vector<float> class_prob_;
@@ -133,6 +172,7 @@ class RunSemantics {
   int st_segment_ = -1, st_fuse_ = -1, st_render_ = -1, st_crf_ = -1;
   int c_cnn_frames_ = -1, c_surfel_updates_ = -1, c_hidden_ = -1, c_no_depth_ = -1, c_label_images_ = -1;
   int c_crf_runs_ = -1, c_crf_left_out_ = -1;
+  int c_late_ = -1, c_unfused_ = -1;
   int64_t last_crf_frame_ = -1;
 };
 

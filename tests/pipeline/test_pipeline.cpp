@@ -119,31 +119,114 @@ class StopAfter : public pipeline::RunObserver {
   int64_t stop_after_;
 };
 
+// A deterministic run (pipeline.deterministic: the CNN takes exactly the due frames, mapping waits
+// for each result) gives the outputs of one thread on two and three; without it the geometry is
+// still the same, whenever the CNN finishes.
 TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
   const auto dir = test::scratch_dir("pipeline-threads");
   const std::string model = tiny_model(dir);
-  std::string trajectory[3], map[3];
-  for (int threads = 1; threads <= 3; ++threads) {
-    LoopSource source(12, 40);
+  for (const bool deterministic : {true, false}) {
+    std::string trajectory[3], map[3];
+    for (int threads = 1; threads <= 3; ++threads) {
+      LoopSource source(12, 40);
+      StageStats stats;
+      const auto out = dir / ("t" + std::to_string(threads) + (deterministic ? "d" : "a"));
+      pipeline::RunConfig config = small_run(out, model, threads);
+      config.pipeline.deterministic = deterministic;
+      auto p = pipeline::RunPipeline::create(config, source, stats);
+      ASSERT_TRUE(p.ok()) << to_string(p.error());
+      pipeline::RunObserver none;
+      const pipeline::RunOutcome outcome = (*p)->run(none);
+      EXPECT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
+      EXPECT_EQ(outcome.frames, 40);
+      const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
+      EXPECT_TRUE(files.errors.empty());
+      const uint64_t cnn_frames = stats.counter(stats.counter_id("cnn_frames"));
+      const uint64_t skipped = stats.counter(stats.counter_id("cnn_frames_skipped"));
+      if (deterministic || threads == 1) {
+        EXPECT_EQ(cnn_frames, 8u);  // frames 0, 5, ..., 35
+        EXPECT_EQ(skipped, 0u);
+      } else {
+        EXPECT_EQ(cnn_frames + skipped, 8u) << "every request is served or counted as skipped";
+      }
+      trajectory[threads - 1] = read_file(files.trajectory);
+      map[threads - 1] = read_file(files.map);
+    }
+    EXPECT_GT(trajectory[0].size(), 40u * 20);
+    EXPECT_GT(map[0].size(), 10'000u);
+    for (int t = 1; t < 3; ++t) {
+      EXPECT_EQ(trajectory[0], trajectory[t]) << t + 1 << " threads";
+      if (deterministic) EXPECT_TRUE(map[0] == map[t]) << "map.ply differs between one and " << t + 1 << " threads";
+    }
+  }
+}
+
+// Issue 28: a CNN far slower than mapping (here 10x a frame's mapping time) must not slow the
+// mapping: it takes a frame when it is free, its result is fused at that frame's own pose when it
+// comes, and the requests it could not take are counted.
+TEST(Pipeline, SlowCnnNeitherHoldsMappingBackNorFusesAtTheWrongPose) {
+  const auto dir = test::scratch_dir("pipeline-slow-cnn");
+  const std::string model = tiny_model(dir);
+  constexpr int kFrames = 120;
+  // Mapping rate without labels, the reference.
+  double plain_seconds = 0;
+  {
+    LoopSource source(12, kFrames);
     StageStats stats;
-    const auto out = dir / ("t" + std::to_string(threads));
-    auto p = pipeline::RunPipeline::create(small_run(out, model, threads), source, stats);
+    pipeline::RunConfig config = small_run(dir / "plain", model, 3);
+    config.labels.enabled = false;
+    auto p = pipeline::RunPipeline::create(config, source, stats);
     ASSERT_TRUE(p.ok()) << to_string(p.error());
     pipeline::RunObserver none;
     const pipeline::RunOutcome outcome = (*p)->run(none);
-    EXPECT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
-    EXPECT_EQ(outcome.frames, 40);
-    const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
-    EXPECT_TRUE(files.errors.empty());
-    EXPECT_EQ(stats.counter(stats.counter_id("cnn_frames")), 8u);  // frames 0, 5, ..., 35
-    trajectory[threads - 1] = read_file(files.trajectory);
-    map[threads - 1] = read_file(files.map);
+    ASSERT_FALSE(outcome.error.has_value());
+    plain_seconds = outcome.seconds;
   }
-  EXPECT_GT(trajectory[0].size(), 40u * 20);
-  EXPECT_GT(map[0].size(), 10'000u);
-  for (int t = 1; t < 3; ++t) {
-    EXPECT_EQ(trajectory[0], trajectory[t]) << t + 1 << " threads";
-    EXPECT_TRUE(map[0] == map[t]) << "map.ply differs between one and " << t + 1 << " threads";
+  const double frame_ms = 1000.0 * plain_seconds / kFrames;
+
+  LoopSource source(12, kFrames);
+  StageStats stats;
+  pipeline::RunConfig config = small_run(dir / "slow", model, 3);
+  config.label_fusion.update_every_n_frames = 2;
+  config.pipeline.test_cnn_delay_ms = 10 * frame_ms;
+  auto p = pipeline::RunPipeline::create(config, source, stats);
+  ASSERT_TRUE(p.ok()) << to_string(p.error());
+  // After each mapped frame: the pose of every frame, and each newly fused result's frame and pose.
+  class Watch : public pipeline::RunObserver {
+   public:
+    void frame_mapped(const pipeline::RunPipeline& p) override {
+      poses[std::size_t(p.mapping().frames() - 1)] = p.mapping().last_result().T_world_cam;
+      const auto& f = p.semantics()->last_fused();
+      if (f.frame >= 0 && f.frame != last_frame) {
+        last_frame = f.frame;
+        fused.push_back(f);
+      }
+    }
+    std::vector<SE3> poses = std::vector<SE3>(kFrames);
+    std::vector<pipeline::RunSemantics::FusedResult> fused;
+    int64_t last_frame = -1;
+  } watch;
+  watch.fused.reserve(kFrames);
+  const pipeline::RunOutcome outcome = (*p)->run(watch);
+  ASSERT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
+  ASSERT_EQ(outcome.frames, kFrames);
+  // Mapping did not wait for the CNN: serving every request (one every 2nd frame) would have taken
+  // the CNN kFrames / 2 x its delay, 5 times the plain run; the run took far less.
+  const double serve_all_seconds = (kFrames / 2) * config.pipeline.test_cnn_delay_ms / 1000.0;
+  EXPECT_LT(outcome.seconds, 0.5 * serve_all_seconds) << "plain run " << plain_seconds << " s";
+  const uint64_t cnn_frames = stats.counter(stats.counter_id("cnn_frames"));
+  const uint64_t skipped = stats.counter(stats.counter_id("cnn_frames_skipped"));
+  const uint64_t late = stats.counter(stats.counter_id("cnn_results_late"));
+  EXPECT_GT(skipped, 0u);
+  EXPECT_GT(late, 0u);
+  EXPECT_GE(cnn_frames, 2u);
+  EXPECT_EQ(cnn_frames + skipped, uint64_t(kFrames / 2)) << "every request is served or counted as skipped";
+  ASSERT_FALSE(watch.fused.empty());
+  for (const auto& f : watch.fused) {
+    EXPECT_LE(f.frame, f.fused_at);
+    // The pose the result met is its own frame's, not the frame being mapped when it came.
+    EXPECT_TRUE(f.T_world_cam.matrix().isApprox(watch.poses[std::size_t(f.frame)].matrix(), 1e-12))
+        << "result of frame " << f.frame << " fused at frame " << f.fused_at;
   }
 }
 

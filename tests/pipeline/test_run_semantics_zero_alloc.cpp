@@ -1,6 +1,7 @@
 // The semantic half of a run (segment, fuse through the index map, render) must not touch the heap
 // per frame once created, like the SLAM it follows: `edgefusion run`'s per-frame path after
-// SurfelSlam::process (src/pipeline/run_semantics.h), with the CNN on every frame.
+// SurfelSlam::process (src/pipeline/run_semantics.h), with the CNN on every frame: results fused at
+// their own frame and results fused one frame late (an index map rendered at their frame's pose).
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -8,6 +9,7 @@
 
 #include "support/alloc_counter.h"
 #include "core/stage_stats.h"
+#include "pipeline/cnn_worker.h"
 #include "pipeline/run_config.h"
 #include "pipeline/run_semantics.h"
 #include "io/frame_source.h"
@@ -47,19 +49,26 @@ TEST(RunSemanticsZeroAlloc, SegmentFuseAndRenderAllocateNothingPerFrame) {
   frame.allocate(K.width, K.height, true);
   slam::SlamFrameResult result;
   Image<uint8_t> rendered(K.width, K.height);
-  pipeline::CnnResult cnn;
-  (*sem)->allocate(cnn);
+  auto cnn = pipeline::CnnWorker::create(**sem, K.width, K.height, /*threaded=*/false);
+  ASSERT_TRUE(cnn.ok());
   uint64_t allocations = 0;
   for (int i = 0; i < 10; ++i) {
     ASSERT_TRUE(*(*source)->next(frame));
     test::AllocationCounter count;  // the source's rendering is not part of the path
     ASSERT_TRUE(slam->process(frame, &result).ok());
-    ASSERT_TRUE((*sem)->segment(frame, cnn).ok());
-    ASSERT_TRUE((*sem)->on_frame(i, frame, cnn, result, *slam).ok());
+    // Even frames: the CNN's result is there when the frame is mapped. Odd frames: it is queued
+    // after, and fused while the next frame is mapped, at this one's pose.
+    const bool on_time = i % 2 == 0;
+    if (on_time) ASSERT_TRUE((*cnn)->offer(frame, i, /*fuse=*/true, /*wait=*/true));
+    ASSERT_TRUE((*sem)->on_frame(i, frame, on_time, result, *slam, **cnn).ok());
+    if (!on_time) ASSERT_TRUE((*cnn)->offer(frame, i, /*fuse=*/true, /*wait=*/true));
+    const auto& fused = (*sem)->last_fused();
+    EXPECT_EQ(fused.frame, on_time ? i : i - 1) << "frame " << i;
     // The rendering --labels-out writes (the PNG encoder itself is outside the per-frame path).
     ASSERT_TRUE(semantic::render_labels(slam->predictor(), slam->pool(), {}, rendered.view(), frame.depth.view()).ok());
     if (i >= 3) allocations += count.thread_allocations();  // frames 0-2: warm-up (dispatch choices)
   }
+  EXPECT_EQ(stats.counter(stats.counter_id("cnn_results_late")), 4u);  // frames 1, 3, 5, 7 (9's is still queued)
   EXPECT_EQ(allocations, 0u);
   EXPECT_GT(slam->pool().size(), 1000);
 }
