@@ -5,7 +5,9 @@
 //   concat                 30x40 64+64 and 60x80 32+32, as copies (inputs in the output's
 //                          quantisation) and as requantisations
 // and, for completeness, nearest x2 on 60x80x14, avg pool 3x3 s1 p1 on 30x40x128 and clamp on
-// 60x80x32.
+// 60x80x32; for an imported DeepLabv3 head at a 257 input: resize_bilinear 33x33x151 -> 257x257 (the
+// ADE20K logits) and 1x1x256 -> 33x33 (the image pooling broadcast), and the 33x33x320 global
+// average pool.
 //   bench_nn_ops [--reps R] [--min-ms T] [--cpu-time] [--only NAME]
 // Per variant: R timed runs, each repeating the kernel until it has taken at least T ms; prints the
 // median nanoseconds per call (wall clock; with --cpu-time this thread's CPU time instead, which
@@ -168,6 +170,39 @@ void bench_avgpool(int h, int w, int c, const Settings& s, std::mt19937& rng) {
   time_table(title.c_str(), kAvgPoolI8Variants, double(in.size() + out.size()), s, [&](PoolI8Fn fn) { fn(a); });
 }
 
+void bench_resize(int h, int w, int c, int oh, int ow, const Settings& s, std::mt19937& rng) {
+  const std::vector<int8_t> in = random_bytes(std::size_t(h) * w * c, rng);
+  std::vector<int8_t> out(std::size_t(oh) * ow * c);
+  std::vector<ResizeTap> taps(std::size_t(oh) + ow);  // as the loader tabulates them
+  for (int o = 0; o < oh; ++o) taps[o] = resize_tap(o, h, oh);
+  for (int o = 0; o < ow; ++o) taps[oh + o] = resize_tap(o, w, ow);
+  ResizeArgs a;
+  a.in = TensorI8{in.data(), h, w, c, 0};
+  a.out = MutTensorI8{out.data(), oh, ow, c, 0};
+  a.taps_y = taps.data();
+  a.taps_x = taps.data() + oh;
+  const std::string title = "resize_bilinear_i8, " + std::to_string(h) + "x" + std::to_string(w) + "x" +
+                            std::to_string(c) + " -> " + std::to_string(oh) + "x" + std::to_string(ow);
+  time_table(title.c_str(), kResizeBilinearI8Variants, double(in.size() + out.size()), s,
+             [&](ResizeI8Fn fn) { fn(a); });
+}
+
+void bench_global_pool(int h, int w, int c, const Settings& s, std::mt19937& rng) {
+  const std::vector<int8_t> in = random_bytes(std::size_t(h) * w * c, rng);
+  std::vector<int8_t> out(static_cast<std::size_t>(c));
+  const Requant rq{static_cast<float>(1.0 / (h * w))};  // the loader's one-entry table
+  PoolArgs a;
+  a.in = TensorI8{in.data(), h, w, c, 2};
+  a.out = MutTensorI8{out.data(), 1, 1, c, -1};
+  a.kernel_h = h;
+  a.kernel_w = w;
+  a.requant_by_count = &rq;
+  a.requant_count_base = h * w;
+  const std::string title = "avgpool_i8 global, " + std::to_string(h) + "x" + std::to_string(w) + "x" +
+                            std::to_string(c);
+  time_table(title.c_str(), kAvgPoolI8Variants, double(in.size() + out.size()), s, [&](PoolI8Fn fn) { fn(a); });
+}
+
 void bench_clamp(int h, int w, int c, const Settings& s, std::mt19937& rng) {
   const std::vector<int8_t> in = random_bytes(std::size_t(h) * w * c, rng);
   std::vector<int8_t> out(in.size());
@@ -213,5 +248,8 @@ int main(int argc, char** argv) {
   bench_nearest(60, 80, 14, s, rng);
   bench_avgpool(30, 40, 128, s, rng);
   bench_clamp(60, 80, 32, s, rng);
+  bench_resize(33, 33, 151, 257, 257, s, rng);
+  bench_resize(1, 1, 256, 33, 33, s, rng);
+  bench_global_pool(33, 33, 320, s, rng);
   return 0;
 }

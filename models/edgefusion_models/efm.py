@@ -1,4 +1,5 @@
-""".efm v1 writer and reader (docs/model_format.md, section 2).
+""".efm writer and reader (docs/model_format.md, section 2): version 1 (META, TENS, LAYR, WGHT) for
+a model without a class map, version 2 (the same plus CMAP) for one with.
 
 The writer lays the bytes out exactly as ef::nn::serialize_model_unchecked does (weight blocks padded
 to 4-byte offsets before each block, nothing after the last), so a model written here and one
@@ -14,10 +15,12 @@ from .qmodel import (CONV_TYPES, Activation, DType, LayerType, QLayer, QModel, Q
                      validate, weights_per_channel)
 
 MAGIC = b"EFM1"
-VERSION = 1
+VERSION = 1              # four sections
+VERSION_CLASS_MAP = 2    # the four and CMAP (QModel.class_map / target_class_names)
 HEADER_BYTES = 16
 MAX_PAYLOAD_BYTES = 256 << 20
 SECTION_TAGS = (b"META", b"TENS", b"LAYR", b"WGHT")
+CMAP_TAG = b"CMAP"
 
 
 class EfmFormatError(ValueError):
@@ -38,6 +41,20 @@ def _meta(m: QModel):
         b = cn.encode()
         out += [struct.pack("<B", len(b)), b]
     return b"".join(out)
+
+
+def _names(names):
+    out = [struct.pack("<I", len(names))]
+    for cn in names:
+        b = cn.encode()
+        out += [struct.pack("<B", len(b)), b]
+    return b"".join(out)
+
+
+def _cmap(m: QModel):
+    """u32 targets, target names (u8 length, bytes), u32 entries, u8 target class per output channel."""
+    return (_names(m.target_class_names) + struct.pack("<I", len(m.class_map)) +
+            bytes(int(k) for k in m.class_map))
 
 
 def _tens(m: QModel):
@@ -77,11 +94,16 @@ def to_bytes(m: QModel, check=True):
     if check:
         validate(m)
     layr, wght = _layr_wght(m)
-    payload = b"".join(tag + struct.pack("<I", len(body)) + body
-                       for tag, body in zip(SECTION_TAGS, (_meta(m), _tens(m), layr, wght)))
+    tags, bodies = list(SECTION_TAGS), [_meta(m), _tens(m), layr, wght]
+    has_map = bool(len(m.class_map) or len(m.target_class_names))
+    if has_map:
+        tags.append(CMAP_TAG)
+        bodies.append(_cmap(m))
+    payload = b"".join(tag + struct.pack("<I", len(body)) + body for tag, body in zip(tags, bodies))
     if len(payload) > MAX_PAYLOAD_BYTES:
         raise EfmFormatError(f"{m.name}: payload of {len(payload)} bytes above the 256 MiB limit")
-    header = MAGIC + struct.pack("<III", VERSION, len(payload), zlib.crc32(payload) & 0xFFFFFFFF)
+    version = VERSION_CLASS_MAP if has_map else VERSION
+    header = MAGIC + struct.pack("<III", version, len(payload), zlib.crc32(payload) & 0xFFFFFFFF)
     return header + payload
 
 
@@ -123,7 +145,7 @@ def from_bytes(data, check=True):
     if len(data) < HEADER_BYTES or data[:4] != MAGIC:
         raise EfmFormatError("header: bad magic or truncated")
     version, size, crc = struct.unpack_from("<III", data, 4)
-    if version != VERSION:
+    if version not in (VERSION, VERSION_CLASS_MAP):
         raise EfmFormatError(f"header: version {version} unsupported")
     if size != len(data) - HEADER_BYTES:
         raise EfmFormatError(f"header: payload size {size} but {len(data) - HEADER_BYTES} bytes follow")
@@ -131,7 +153,7 @@ def from_bytes(data, check=True):
     if zlib.crc32(payload) & 0xFFFFFFFF != crc:
         raise EfmFormatError("header: payload CRC32 mismatch")
     bodies, pos = [], 0
-    for tag in SECTION_TAGS:
+    for tag in SECTION_TAGS + ((CMAP_TAG,) if version == VERSION_CLASS_MAP else ()):
         if pos + 8 > len(payload) or payload[pos:pos + 4] != tag:
             raise EfmFormatError(f"{tag.decode()}: missing or out of order")
         (length,) = struct.unpack_from("<I", payload, pos + 4)
@@ -192,8 +214,24 @@ def from_bytes(data, check=True):
         layers.append(l)
     r.done()
 
+    class_map, targets = [], []
+    if version == VERSION_CLASS_MAP:
+        r = _Reader(bodies[4], "CMAP")
+        (count,) = r.take("<I")
+        if count < 1:
+            raise EfmFormatError("CMAP: no target classes")
+        for _ in range(count):
+            (n,) = r.take("<B")
+            targets.append(r.raw(n).decode())
+        (entries,) = r.take("<I")
+        if entries < 1:
+            raise EfmFormatError("CMAP: empty class map")
+        class_map = list(r.raw(entries))
+        r.done()
+
     m = QModel(name=name, input_tensor=input_tensor, output_tensor=output_tensor, input_mean=mean,
-               input_scale=scale, class_names=class_names, tensors=tensors, layers=layers)
+               input_scale=scale, class_names=class_names, tensors=tensors, layers=layers, class_map=class_map,
+               target_class_names=targets)
     if check:
         validate(m)
     return m

@@ -106,6 +106,25 @@ def upsample_bilinear(x, f):
     return rows[:, :, j0] * (1 - lx)[None, None, :, None] + rows[:, :, j1] * lx[None, None, :, None]
 
 
+def _align_corners_taps(n_in, n_out):
+    """TensorFlow ResizeBilinear with align_corners=True (half_pixel_centers=False): source position
+    o * (n_in - 1) / (n_out - 1) (0 when n_out == 1); indices i0, i1 and the weight of i1."""
+    o = np.arange(n_out, dtype=np.float64)
+    src = o * (n_in - 1) / (n_out - 1) if n_out > 1 else np.zeros(n_out)
+    i0 = np.minimum(np.floor(src).astype(np.int64), n_in - 1)
+    i1 = np.minimum(i0 + 1, n_in - 1)
+    return i0, i1, (src - i0).astype(np.float32)
+
+
+def resize_bilinear(x, size):
+    """Bilinear resize to size = (H, W), TensorFlow's align_corners rule (corners map to corners)."""
+    _, h, w, _ = x.shape
+    i0, i1, ly = _align_corners_taps(h, size[0])
+    rows = x[:, i0] * (1 - ly)[None, :, None, None] + x[:, i1] * ly[None, :, None, None]
+    j0, j1, lx = _align_corners_taps(w, size[1])
+    return rows[:, :, j0] * (1 - lx)[None, None, :, None] + rows[:, :, j1] * lx[None, None, :, None]
+
+
 def softmax(x):
     e = np.exp(x - x.max(axis=3, keepdims=True))
     return e / e.sum(axis=3, keepdims=True)

@@ -8,6 +8,8 @@ list of Nodes in execution order; every node reads named tensors and writes one.
   pointwise_conv2d  weight [Cout][Cin]              bias [Cout]
   add, concat (channels), clamp, max_pool, avg_pool (padding excluded from the count),
   upsample (factor f, mode "nearest" or "bilinear" with half-pixel centres), softmax (channels)
+  resize_bilinear   to size = (H, W), any size up or down, TensorFlow align_corners
+  avg_pool with kernel = its input's (H, W), stride 1, no padding is a global pool (up to 256 x 256)
   batchnorm         per-channel y = x * bn_scale + bn_shift; only while importing (passes.py folds it)
 
 conv2d / depthwise / pointwise / add / clamp carry an output range act_range = (lo, hi) in real
@@ -27,7 +29,8 @@ from . import float_ops
 
 INF = math.inf
 CONV_KINDS = ("conv2d", "depthwise_conv2d", "pointwise_conv2d")
-KINDS = CONV_KINDS + ("add", "concat", "clamp", "max_pool", "avg_pool", "upsample", "softmax", "batchnorm")
+KINDS = CONV_KINDS + ("add", "concat", "clamp", "max_pool", "avg_pool", "upsample", "resize_bilinear", "softmax",
+                      "batchnorm")
 # Kinds whose output range (activation) the runtime can apply; avg_pool and concat have none.
 RANGED_KINDS = CONV_KINDS + ("add", "clamp")
 
@@ -51,6 +54,7 @@ class Node:
     act_range: Tuple[float, float] = (-INF, INF)  # output range in real units
     factor: int = 1                           # upsample
     mode: str = "nearest"                     # upsample: "nearest" or "bilinear"
+    size: Tuple[int, int] = (0, 0)            # resize_bilinear: output (H, W)
     bn_scale: Optional[np.ndarray] = None     # batchnorm (transient)
     bn_shift: Optional[np.ndarray] = None
 
@@ -65,6 +69,11 @@ class Graph:
     mean: List[float]
     scale: List[float]
     class_names: List[str] = field(default_factory=list)
+    # Optional: per output channel, the class id it contributes to in the runtime's label set (the
+    # model file's CMAP, docs/model_format.md), and the names of those target classes. Both empty
+    # (output channel k is class k) or both given.
+    class_map: List[int] = field(default_factory=list)
+    target_class_names: List[str] = field(default_factory=list)
 
     def producer(self):
         """{tensor name: node} for every produced tensor."""
@@ -126,6 +135,11 @@ def infer_shapes(g: Graph):
             shapes[n.output] = (h, w, sum(s[2] for s in ins))
         elif n.kind == "upsample":
             shapes[n.output] = (h * n.factor, w * n.factor, c)
+        elif n.kind == "resize_bilinear":
+            oh, ow = n.size
+            if oh < 1 or ow < 1:
+                bad(f"output size {n.size} must be at least 1 x 1")
+            shapes[n.output] = (oh, ow, c)
         elif n.kind in ("clamp", "softmax", "batchnorm"):
             shapes[n.output] = ins[0]
         else:
@@ -164,6 +178,8 @@ def run_node(n: Node, ins):
     elif n.kind == "upsample":
         y = (float_ops.upsample_nearest(ins[0], n.factor) if n.mode == "nearest"
              else float_ops.upsample_bilinear(ins[0], n.factor))
+    elif n.kind == "resize_bilinear":
+        y = float_ops.resize_bilinear(ins[0], n.size)
     elif n.kind == "softmax":
         y = float_ops.softmax(ins[0])
     elif n.kind == "batchnorm":

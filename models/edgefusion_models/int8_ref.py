@@ -3,7 +3,7 @@
 Tensors are HWC numpy arrays (N = 1). Every float step is an IEEE binary32 numpy operation on
 np.float32 arrays (numpy never fuses a multiply and an add), every rounding the one of the doc:
 np.rint for the requantisation (round half to even), exact integer "round half up" for bilinear
-upsampling, std::round semantics for the input quantisation.
+upsampling and resizing, std::round semantics for the input quantisation.
 
 Convolution accumulators are computed with float64 matrix products: every product and partial sum
 is an integer below 2^31 (|q - z| <= 255, |w| <= 127, K <= 32768), hence exact in float64 whatever
@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from .qmodel import (DType, LayerType, QModel, avg_real_multiplier, conv_real_multiplier, make_multiplier,
-                     ratio_real_multiplier)
+                     ratio_real_multiplier, resize_tap)
 
 
 def requantize(x, m, zp, lo, hi):
@@ -134,10 +134,13 @@ def avg_pool(l, x, t_in, t_out):
     for v, valid in _pool_windows(l, x.astype(np.int32) - t_in.zero_point, t_out.h, t_out.w, 0):
         total += v
         count += valid
-    table = np.array([make_multiplier(avg_real_multiplier(t_in.scale, t_out.scale, n))
-                      for n in range(1, l.kernel_h * l.kernel_w + 1)], dtype=np.float32)
-    m = table[count - 1][:, :, None]
-    return requantize(total, m, t_out.zero_point, -128, 127)
+    # The multiplier of each count that occurs (a global pool: the one count kh*kw, up to 65536).
+    counts = np.unique(count)
+    table = {int(n): make_multiplier(avg_real_multiplier(t_in.scale, t_out.scale, int(n))) for n in counts}
+    m = np.zeros(count.shape, dtype=np.float32)
+    for n, mult in table.items():
+        m[count == n] = mult
+    return requantize(total, m[:, :, None], t_out.zero_point, -128, 127)
 
 
 def bilinear_taps(n_out, f, n_in):
@@ -163,6 +166,26 @@ def upsample(l, x):
     rows = (F - ry)[:, None, None] * u[i0y] + ry[:, None, None] * u[i1y]
     num = (F - rx)[None, :, None] * rows[:, i0x] + rx[None, :, None] * rows[:, i1x]
     return ((num + D // 2) // D - 128).astype(np.int8)
+
+
+def resize_taps(n_in, n_out):
+    """3.9 along one axis: (i0, i1, w) arrays, w the weight of i1 in units of 1/2048."""
+    taps = np.array([resize_tap(o, n_in, n_out) for o in range(n_out)], dtype=np.int64).reshape(n_out, 3)
+    return taps[:, 0], taps[:, 1], taps[:, 2]
+
+
+def resize_bilinear(x, t_out):
+    """3.9: bilinear resize to t_out's H x W, TensorFlow align_corners, 11-bit weights; u = q + 128,
+    num = (2048 - wy)((2048 - wx) u00 + wx u01) + wy((2048 - wx) u10 + wx u11) in int64 (exact, below
+    2^31), q = ((num + 2^21) >> 22) - 128."""
+    h, w, _ = x.shape
+    u = x.astype(np.int64) + 128
+    i0y, i1y, wy = resize_taps(h, t_out.h)
+    i0x, i1x, wx = resize_taps(w, t_out.w)
+    # Columns first (each row of u blended along x), then rows: the same integers as the doc's grouping.
+    cols = (2048 - wx)[None, :, None] * u[:, i0x] + wx[None, :, None] * u[:, i1x]
+    num = (2048 - wy)[:, None, None] * cols[i0y] + wy[:, None, None] * cols[i1y]
+    return (((num + (1 << 21)) >> 22) - 128).astype(np.int8)
 
 
 def softmax_table(scale):
@@ -207,6 +230,8 @@ def run(model: QModel, input_q, keep_tensors=False):
             y = avg_pool(l, ins[0], tins[0], tout)
         elif l.type == LayerType.UPSAMPLE:
             y = upsample(l, ins[0])
+        elif l.type == LayerType.RESIZE_BILINEAR:
+            y = resize_bilinear(ins[0], tout)
         elif l.type == LayerType.SOFTMAX:
             y = softmax(ins[0], tins[0])
         else:

@@ -1,4 +1,4 @@
-"""The quantised model: what an .efm v1 file describes (docs/model_format.md), as Python objects.
+"""The quantised model: what an .efm file describes (docs/model_format.md), as Python objects.
 
 This mirrors ef::nn::ModelDesc (src/nn/model_format.h) field for field, so that the writer (efm.py),
 the integer reference (int8_ref.py) and the quantiser (quantize.py) share one description. validate()
@@ -21,6 +21,7 @@ MAX_CLASSES = 256
 MAX_NAME_BYTES = 255
 MAX_CLASS_NAME_BYTES = 63
 MAX_KERNEL = 31
+MAX_GLOBAL_POOL = 256   # a global avg_pool (window = input H x W, stride 1, no padding) up to 256 x 256
 MAX_STRIDE = 8
 MAX_DILATION = 16
 MAX_PAD = 64
@@ -48,6 +49,7 @@ class LayerType(IntEnum):
     AVG_POOL = 7
     UPSAMPLE = 8
     SOFTMAX = 9
+    RESIZE_BILINEAR = 10
 
 
 CONV_TYPES = (LayerType.CONV2D, LayerType.DEPTHWISE_CONV2D, LayerType.POINTWISE_CONV2D)
@@ -123,6 +125,10 @@ class QModel:
     tensors: List[QTensor]
     layers: List[QLayer]
     tensor_names: List[str] = field(default_factory=list)  # not stored in the file
+    # Optional class map (CMAP section, a version 2 file): per output channel the target class id,
+    # and the target class names; both empty (no map, a version 1 file) or both given.
+    class_map: List[int] = field(default_factory=list)
+    target_class_names: List[str] = field(default_factory=list)
 
 
 def f32(v):
@@ -151,6 +157,30 @@ def ratio_real_multiplier(s_a, s_out):
 def avg_real_multiplier(s_in, s_out, n):
     # (double(s_in) / double(s_out)) / double(n) (avg_pool 3.6).
     return (float(np.float32(s_in)) / float(np.float32(s_out))) / float(n)
+
+
+def is_global_pool(layer, t_in):
+    """An avg_pool whose window is its input's H x W, with stride 1 and no padding (model_format.h)."""
+    return (layer.type == LayerType.AVG_POOL and (layer.kernel_h, layer.kernel_w) == (t_in.h, t_in.w) and
+            (layer.stride_h, layer.stride_w) == (1, 1) and
+            (layer.pad_top, layer.pad_left, layer.pad_bottom, layer.pad_right) == (0, 0, 0, 0))
+
+
+def avg_pool_counts(layer, t_in):
+    """The window counts whose multipliers the loader computes (and checks): kh*kw alone for a global
+    pool, every count 1..kh*kw otherwise."""
+    window = layer.kernel_h * layer.kernel_w
+    return range(window, window + 1) if is_global_pool(layer, t_in) else range(1, window + 1)
+
+
+def resize_tap(o, n, m):
+    """docs/model_format.md 3.9 (nn/resize_taps.h): (i0, i1, w) of output index o on an axis of n
+    input and m output positions, w the weight of i1 in units of 1/2048."""
+    if m == 1 or n == 1:
+        return 0, 0, 0
+    num, den = o * (n - 1), m - 1
+    i0, r = num // den, num % den
+    return i0, min(i0 + 1, n - 1), (r * 2048 + den // 2) // den
 
 
 def weights_per_channel(layer, cin):
@@ -210,6 +240,7 @@ def validate(m: QModel):
     for i, cn in enumerate(m.class_names):
         if not 1 <= len(cn.encode()) <= MAX_CLASS_NAME_BYTES:
             fail("META", f"class {i} name empty or longer than {MAX_CLASS_NAME_BYTES} bytes")
+    _validate_class_map(m, tout, fail)
     if not 1 <= len(m.layers) <= MAX_LAYERS:
         fail("LAYR", f"{len(m.layers)} layers")
     produced = [False] * n
@@ -225,6 +256,25 @@ def validate(m: QModel):
         produced[l.output] = True
     if not produced[m.output_tensor]:
         fail("LAYR", "no layer produces the output tensor")
+
+
+def _validate_class_map(m, tout, fail):
+    cmap, targets = list(m.class_map), list(m.target_class_names)
+    if not cmap and not targets:
+        return
+    if not cmap or not targets:
+        fail("CMAP", f"a class map needs target class names and the reverse ({len(cmap)} map entries, "
+                     f"{len(targets)} target names)")
+    if len(targets) > MAX_CLASSES:
+        fail("CMAP", f"{len(targets)} target classes, allowed 1..{MAX_CLASSES}")
+    for i, cn in enumerate(targets):
+        if not 1 <= len(cn.encode()) <= MAX_CLASS_NAME_BYTES:
+            fail("CMAP", f"target class {i} name empty or longer than {MAX_CLASS_NAME_BYTES} bytes")
+    if len(cmap) != tout.c:
+        fail("CMAP", f"{len(cmap)} map entries but the output has {tout.c} channels")
+    for k, t in enumerate(cmap):
+        if not 0 <= int(t) < len(targets):
+            fail("CMAP", f"output channel {k} maps to class {t}, beyond the {len(targets)} target classes")
 
 
 def _validate_layer(m, l, bad):
@@ -250,8 +300,12 @@ def _validate_layer(m, l, bad):
             bad(f"output range [{l.out_min}, {l.out_max}]")
 
     def check_window(conv):
-        if not (1 <= l.kernel_h <= MAX_KERNEL and 1 <= l.kernel_w <= MAX_KERNEL):
-            bad("kernel size")
+        max_k = MAX_GLOBAL_POOL if is_global_pool(l, in0) else MAX_KERNEL
+        if not (1 <= l.kernel_h <= max_k and 1 <= l.kernel_w <= max_k):
+            bad(f"kernel {l.kernel_h}x{l.kernel_w} outside 1..{max_k}" +
+                ("" if max_k == MAX_GLOBAL_POOL or l.type != LayerType.AVG_POOL else
+                 f" (up to {MAX_GLOBAL_POOL} only for a global average pool: window = input H x W, stride 1, "
+                 "no padding)"))
         if not (1 <= l.stride_h <= MAX_STRIDE and 1 <= l.stride_w <= MAX_STRIDE):
             bad("stride")
         dh, dw = (l.dilation_h, l.dilation_w) if conv else (1, 1)
@@ -320,7 +374,7 @@ def _validate_layer(m, l, bad):
         if l.type == LayerType.MAX_POOL and not same_quant(in0, out):
             bad("max_pool needs equal input and output quantisation")
         if l.type == LayerType.AVG_POOL:
-            for k in range(1, l.kernel_h * l.kernel_w + 1):
+            for k in avg_pool_counts(l, in0):
                 if make_multiplier(avg_real_multiplier(in0.scale, out.scale, k)) is None:
                     bad(f"multiplier over a window of {k} is not a normal float32 below 2^24")
     elif l.type == LayerType.UPSAMPLE:
@@ -328,6 +382,11 @@ def _validate_layer(m, l, bad):
             bad("upsampling factor or mode")
         if (in0.h * l.factor, in0.w * l.factor, in0.c) != out.shape or not same_quant(in0, out):
             bad("upsample needs out = in x factor and equal quantisation")
+    elif l.type == LayerType.RESIZE_BILINEAR:
+        if in0.c != out.c:
+            bad(f"changes channels {in0.c} -> {out.c}")
+        if not same_quant(in0, out):
+            bad("input and output quantisation must match")
     elif l.type == LayerType.SOFTMAX:
         if in0.shape != out.shape:
             bad("softmax shapes")

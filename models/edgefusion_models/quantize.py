@@ -7,7 +7,8 @@ Choices (docs/model_format.md fixes the arithmetic, these are the exporter's):
   observed. Range ends are rounded outward to 8 significant bits first: a last-bit difference in the
   float forward pass (another BLAS, another CPU) then almost never changes a scale, which keeps the
   exported bytes reproducible.
-- Tensors that the format requires to share one quantisation (upsample, clamp and max_pool in/out)
+- Tensors that the format requires to share one quantisation (upsample, resize_bilinear, clamp and
+  max_pool in/out)
   form groups (union-find) quantised with the union of their members' ranges. Concat inputs join their
   output's group too (policy "share", the default): each value is then rounded once, by the layer
   that produced it, and the concat is an exact copy; "requantize" keeps separate input ranges.
@@ -119,7 +120,8 @@ def activation_params(g: Graph, ranges, in_range, concat_policy="share"):
     """{tensor: (scale, zero point)} for every int8 tensor."""
     groups = _Groups()
     for n in g.nodes:
-        if n.kind in ("upsample", "clamp", "max_pool") or (n.kind == "concat" and concat_policy == "share"):
+        if n.kind in ("upsample", "resize_bilinear", "clamp", "max_pool") or (
+                n.kind == "concat" and concat_policy == "share"):
             for t in n.inputs:
                 groups.union(n.output, t)
     # Each tensor's own range: observed, inside the producer's output range; the input's from the domain.
@@ -239,6 +241,8 @@ def quantize_graph(g: Graph, ranges, depth_max=DEFAULT_DEPTH_MAX_M, concat_polic
             l.type = LayerType.UPSAMPLE
             l.factor = n.factor
             l.mode = UpsampleMode.BILINEAR if n.mode == "bilinear" else UpsampleMode.NEAREST
+        elif n.kind == "resize_bilinear":
+            l.type = LayerType.RESIZE_BILINEAR  # the output size is the output tensor's
         elif n.kind in ("add", "concat", "clamp"):
             l.type = {"add": LayerType.ADD, "concat": LayerType.CONCAT, "clamp": LayerType.CLAMP}[n.kind]
         elif n.kind != "softmax":
@@ -250,7 +254,8 @@ def quantize_graph(g: Graph, ranges, depth_max=DEFAULT_DEPTH_MAX_M, concat_polic
     classes = list(g.class_names) or [f"class{i}" for i in range(shapes[g.output][2])]
     m = QModel(name=name or g.name, input_tensor=ids[g.input], output_tensor=ids[g.output],
                input_mean=[f32(v) for v in g.mean], input_scale=[f32(v) for v in g.scale], class_names=classes,
-               tensors=tensors, layers=layers, tensor_names=names)
+               tensors=tensors, layers=layers, tensor_names=names, class_map=[int(k) for k in g.class_map],
+               target_class_names=list(g.target_class_names))
     validate(m)
     return m
 

@@ -89,3 +89,40 @@ def tiny_model(seed=1):
 def random_input(model, seed=0):
     t = model.tensors[model.input_tensor]
     return np.random.RandomState(seed).randint(-128, 128, size=(t.h, t.w, t.c)).astype(np.int8)
+
+
+def resize_model(seed=7):
+    """The layers a DeepLabv3 head adds, in a 17 x 25 x 4 -> 33 x 33 x 7 network (validated): bilinear
+    resizes up (17x25 -> 33x49), as a broadcast (1x1 -> 33x49) and down (33x49 -> 20x20), a global
+    average pool of 33 x 49 (above the 31 of ordinary windows), a requantising concat, and a class map
+    of the 7 outputs into 4 target classes (a version 2 file). The C++ fixture
+    tests/data/nn/resize_pool_cmap/ is this model (test_resize_pool_cmap.py)."""
+    from edgefusion_models.qmodel import DType, LayerType as T, QLayer, QModel, QTensor, validate
+    rng = np.random.RandomState(seed)
+
+    def t(h, w, c, s, z):
+        return QTensor(h=h, w=w, c=c, scale=s, zero_point=z)
+
+    tensors = [t(17, 25, 4, 0.02, -3),     # 0 input
+               t(17, 25, 16, 0.05, 4),     # 1 pointwise
+               t(33, 49, 16, 0.05, 4),     # 2 resize up
+               t(1, 1, 16, 0.02, -9),      # 3 global average pool 33 x 49
+               t(33, 49, 16, 0.02, -9),    # 4 resize 1x1 -> 33x49 (broadcast)
+               t(33, 49, 32, 0.06, 2),     # 5 concat (2, 4), requantising
+               t(20, 20, 32, 0.06, 2),     # 6 resize down
+               t(20, 20, 7, 0.11, -7),     # 7 pointwise: logits
+               t(33, 33, 7, 0.11, -7),     # 8 resize up (non-integer ratio)
+               QTensor(h=33, w=33, c=7, dtype=DType.FLOAT32)]  # 9 probabilities
+    pw1 = QLayer(T.POINTWISE_CONV2D, [0], 1)
+    fill_conv(pw1, 16, 4, rng)
+    gap = QLayer(T.AVG_POOL, [2], 3, kernel_h=33, kernel_w=49)
+    pw2 = QLayer(T.POINTWISE_CONV2D, [6], 7)
+    fill_conv(pw2, 7, 32, rng)
+    L = [pw1, QLayer(T.RESIZE_BILINEAR, [1], 2), gap, QLayer(T.RESIZE_BILINEAR, [3], 4), QLayer(T.CONCAT, [2, 4], 5),
+         QLayer(T.RESIZE_BILINEAR, [5], 6), pw2, QLayer(T.RESIZE_BILINEAR, [7], 8), QLayer(T.SOFTMAX, [8], 9)]
+    m = QModel(name="resize-pool-cmap", input_tensor=0, output_tensor=9, input_mean=[128.0, 128.0, 128.0, 2.0],
+               input_scale=[1 / 64, 1 / 64, 1 / 64, 1.0], class_names=[f"out{k}" for k in range(7)],
+               tensors=tensors, layers=L, tensor_names=[f"t{i}" for i in range(10)],
+               class_map=[0, 1, 1, 2, 3, 3, 0], target_class_names=["unknown", "wall", "floor", "other"])
+    validate(m)
+    return m

@@ -1,4 +1,4 @@
-""".efm v1 writer and reader: round trip, header and CRC, framing faults, semantic validation."""
+""".efm writer and reader (version 2, the class map: test_resize_pool_cmap.py): round trip, header and CRC, framing faults, semantic validation."""
 import copy
 import os
 import struct
@@ -88,7 +88,7 @@ class EfmTest(unittest.TestCase):
         with self.assertRaisesRegex(efm.EfmFormatError, "payload size"):
             efm.from_bytes(data[:-1])
         bad = bytearray(data)
-        bad[4] = 2
+        bad[4] = 3  # 1 and 2 (with a class map) are read
         with self.assertRaisesRegex(efm.EfmFormatError, "version"):
             efm.from_bytes(bad)
         with self.assertRaisesRegex(efm.EfmFormatError, "magic"):

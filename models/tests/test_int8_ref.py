@@ -10,7 +10,7 @@ import numpy as np
 from edgefusion_models import int8_ref
 from edgefusion_models.qmodel import DType, LayerType as T
 
-from .helpers import random_input, tiny_model
+from .helpers import random_input, resize_model, tiny_model
 
 
 def f32(v):
@@ -104,6 +104,23 @@ def slow_layer(model, l, vals):
                     num = ((F - ry) * (F - rx) * u(y0, x0) + (F - ry) * rx * u(y0, x1) + ry * (F - rx) * u(y1, x0) +
                            ry * rx * u(y1, x1))
                     out[oy, ox, c] = (num + D // 2) // D - 128
+    elif l.type == T.RESIZE_BILINEAR:
+        # 3.9: TensorFlow align_corners taps in units of 1/2048, u = q + 128, round half up at 2^22.
+        def rtap(o, n, m):
+            if m == 1 or n == 1:
+                return 0, 0, 0
+            num, den = o * (n - 1), m - 1
+            return num // den, min(num // den + 1, n - 1), ((num % den) * 2048 + den // 2) // den
+        for oy in range(to.h):
+            y0, y1, wy = rtap(oy, ti.h, to.h)
+            for ox in range(to.w):
+                x0, x1, wx = rtap(ox, ti.w, to.w)
+                for c in range(to.c):
+                    u = lambda yy, xx: int(x[yy, xx, c]) + 128
+                    num = ((2048 - wy) * ((2048 - wx) * u(y0, x0) + wx * u(y0, x1)) +
+                           wy * ((2048 - wx) * u(y1, x0) + wx * u(y1, x1)))
+                    assert num < 2 ** 31
+                    out[oy, ox, c] = ((num + (1 << 21)) >> 22) - 128
     elif l.type == T.SOFTMAX:
         table = [f32(math.exp(-float(f32(ti.scale)) * d)) for d in range(256)]
         for oy in range(to.h):
@@ -138,6 +155,35 @@ class Int8RefTest(unittest.TestCase):
                                               err_msg=f"seed {seed}, layer {li} ({l.type.name})")
             # Not degenerate: the logits spread over many values.
             self.assertGreater(len(np.unique(tensors[11])), 20)
+
+    def test_resize_and_global_pool_match_the_slow_reference(self):
+        model = resize_model()
+        for seed in (0, 1):
+            x = random_input(model, seed)
+            if seed == 1:
+                x[:] = np.where(np.arange(x.size).reshape(x.shape) % 3 == 0, 127, -128)  # extreme blends
+            probs, tensors = int8_ref.run(model, x, keep_tensors=True)
+            vals = {model.input_tensor: x}
+            for li, l in enumerate(model.layers):
+                want = slow_layer(model, l, vals)
+                vals[l.output] = want
+                got = probs if l.type == T.SOFTMAX else tensors[l.output]
+                np.testing.assert_array_equal(got.view(np.uint8 if got.dtype == np.int8 else np.uint32),
+                                              want.view(np.uint8 if want.dtype == np.int8 else np.uint32),
+                                              err_msg=f"seed {seed}, layer {li} ({l.type.name})")
+
+    def test_resize_by_hand(self):
+        # 2x2 -> 3x3, u = [[0, 255], [128, 178]]: midpoints 127.5 -> 128, 216.5 -> 217 (half up), centre
+        # 140.25 -> 140, corners copied (the C++ twin: ResizeBilinearRule.HandComputed2x2To3x3).
+        from edgefusion_models.qmodel import QTensor
+        x = np.int8([[-128, 127], [0, 50]]).reshape(2, 2, 1)
+        y = int8_ref.resize_bilinear(x, QTensor(h=3, w=3, c=1))
+        np.testing.assert_array_equal(y[:, :, 0], [[-128, 0, 127], [-64, 12, 89], [0, 25, 50]])
+        # 1x1 -> 4x5 is a broadcast; n -> 1 takes the first pixel.
+        x = np.int8([[[5, -7, 127]]])
+        np.testing.assert_array_equal(int8_ref.resize_bilinear(x, QTensor(h=4, w=5, c=3)), np.broadcast_to(x, (4, 5, 3)))
+        x = np.arange(-20, 40, dtype=np.int8).reshape(3, 4, 5)
+        np.testing.assert_array_equal(int8_ref.resize_bilinear(x, QTensor(h=1, w=1, c=5)), x[:1, :1])
 
     def test_requantize_rounds_half_to_even_after_clamping(self):
         q = int8_ref.requantize(np.array([5, 7, -5, -7, 1000, -1000, 3]), np.float32(0.5), 1, -128, 127)

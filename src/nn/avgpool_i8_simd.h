@@ -3,7 +3,10 @@
 // (clip_window of nn/maxpool_i8_simd.h: padding is skipped and not counted), and per block of
 // channels the int32 sum of the n window bytes, then
 //   requantize(sum - n * z_in, m_n, z_out, -128, 127)
-// which is the reference's sum of (q - z_in) (the same integer; |sum| <= 255 * 31 * 31 < 2^31).
+// which is the reference's sum of (q - z_in) (the same integer; |sum| <= 255 * 256 * 256 < 2^31, the
+// largest window being a global pool of 256 x 256, and |n * z_in| <= 128 * 65536). The multiplier of
+// a window of n positions is requant_by_count[n - requant_count_base] (a global pool's table holds its
+// one count only).
 #pragma once
 
 #include <cstddef>
@@ -56,7 +59,7 @@ void avgpool_rows(const PoolArgs& a) {
       const Window win = clip_window(a, oy, ox);
       const int n = win.ny * win.nx;
       int8_t* dst = a.out.data + (std::ptrdiff_t(oy) * a.out.w + ox) * C;
-      Blocks::run(AvgPoolOp{win, dst, n * a.in.zero_point, a.out.zero_point, a.requant_by_count[n - 1].multiplier}, 0, C);
+      Blocks::run(AvgPoolOp{win, dst, n * a.in.zero_point, a.out.zero_point, a.requant_by_count[n - a.requant_count_base].multiplier}, 0, C);
     }
 }
 

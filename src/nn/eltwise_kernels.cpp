@@ -46,6 +46,11 @@ const kernels::KernelVariant<UpsampleI8Fn>& upsample_bilinear_i8_selected() {
       kernels::best_variant(kUpsampleBilinearI8Variants, cpu_features());
   return v;
 }
+const kernels::KernelVariant<ResizeI8Fn>& resize_bilinear_i8_selected() {
+  static const kernels::KernelVariant<ResizeI8Fn>& v =
+      kernels::best_variant(kResizeBilinearI8Variants, cpu_features());
+  return v;
+}
 const kernels::KernelVariant<SoftmaxI8Fn>& softmax_i8_selected() {
   static const kernels::KernelVariant<SoftmaxI8Fn>& v = kernels::best_variant(kSoftmaxI8Variants, cpu_features());
   return v;

@@ -11,6 +11,9 @@
 //                         vectorised over its channels (nn/concat_i8_simd.h).
 //   upsample_nearest_i8   integer-factor upsampling (UpsampleArgs), vectorised over channels
 //   upsample_bilinear_i8  (nn/upsample_i8_simd.h; bilinear factors above 8 run the reference).
+//   resize_bilinear_i8    bilinear resize to any size, TensorFlow align_corners (ResizeArgs), taps
+//                         precomputed by the loader; vectorised over channels: int32 blends with
+//                         11-bit weights (nn/resize_bilinear_i8_simd.h).
 //   softmax_i8            int8 logits -> float32 probabilities (SoftmaxArgs); vectorised across
 //                         pixels, 4 / 8 / 16 per vector, per-pixel float order kept
 //                         (nn/softmax_i8_simd.h).
@@ -50,6 +53,10 @@ namespace ef::nn {
 #define EF_KERNEL_VARIANT(fn, isa) void fn(const UpsampleArgs& a);
 #include "nn/upsample_nearest_i8.inc"
 #include "nn/upsample_bilinear_i8.inc"
+#undef EF_KERNEL_VARIANT
+
+#define EF_KERNEL_VARIANT(fn, isa) void fn(const ResizeArgs& a);
+#include "nn/resize_bilinear_i8.inc"
 #undef EF_KERNEL_VARIANT
 
 #define EF_KERNEL_VARIANT(fn, isa) void fn(const SoftmaxArgs& a);
@@ -98,6 +105,12 @@ inline constexpr kernels::KernelVariant<UpsampleI8Fn> kUpsampleBilinearI8Variant
 #undef EF_KERNEL_VARIANT
 };
 
+inline constexpr kernels::KernelVariant<ResizeI8Fn> kResizeBilinearI8Variants[] = {
+#define EF_KERNEL_VARIANT(fn, isa) {#fn, kernels::Isa::isa, &fn},
+#include "nn/resize_bilinear_i8.inc"
+#undef EF_KERNEL_VARIANT
+};
+
 inline constexpr kernels::KernelVariant<SoftmaxI8Fn> kSoftmaxI8Variants[] = {
 #define EF_KERNEL_VARIANT(fn, isa) {#fn, kernels::Isa::isa, &fn},
 #include "nn/softmax_i8.inc"
@@ -116,6 +129,7 @@ const kernels::KernelVariant<ClampI8Fn>& clamp_i8_selected();
 const kernels::KernelVariant<ConcatI8Fn>& concat_i8_selected();
 const kernels::KernelVariant<UpsampleI8Fn>& upsample_nearest_i8_selected();
 const kernels::KernelVariant<UpsampleI8Fn>& upsample_bilinear_i8_selected();
+const kernels::KernelVariant<ResizeI8Fn>& resize_bilinear_i8_selected();
 const kernels::KernelVariant<SoftmaxI8Fn>& softmax_i8_selected();
 
 }  // namespace ef::nn

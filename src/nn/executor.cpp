@@ -2,7 +2,9 @@
 // then run() is a loop of indirect calls. Convolutions take the best variant of their family's
 // table (nn/conv_kernels.h) that the CPU, EF_ISA and ExecutorOptions::max_isa allow, with weights
 // repacked for it at creation; every other layer type (add, concat, clamp, max / avg pool, nearest /
-// bilinear upsampling, softmax) likewise from its table in nn/eltwise_kernels.h.
+// bilinear upsampling, bilinear resize, softmax) likewise from its table in nn/eltwise_kernels.h.
+// Tables a layer reads at run time (multipliers, softmax exp table, resize taps) are the Model's,
+// computed by the loader: binding allocates nothing per layer beyond the steps.
 #include "nn/executor.h"
 
 #include <cmath>
@@ -21,6 +23,7 @@ struct Executor::Step {
   ClampI8Fn clamp = nullptr;
   PoolI8Fn pool = nullptr;
   UpsampleI8Fn upsample = nullptr;
+  ResizeI8Fn resize = nullptr;
   SoftmaxI8Fn softmax = nullptr;
   ConvArgs conv_args;
   AddArgs add_args;
@@ -28,6 +31,7 @@ struct Executor::Step {
   ClampArgs clamp_args;
   PoolArgs pool_args;
   UpsampleArgs upsample_args;
+  ResizeArgs resize_args;
   SoftmaxArgs softmax_args;
 };
 
@@ -200,6 +204,8 @@ Status Executor::bind() {
         s.pool_args.stride_h = int(l.stride_h); s.pool_args.stride_w = int(l.stride_w);
         s.pool_args.pad_top = int(l.pad_top); s.pool_args.pad_left = int(l.pad_left);
         s.pool_args.requant_by_count = p.requant.data();
+        // A global pool's table holds its one count, kh*kw (model_format.h PreparedLayer::requant).
+        s.pool_args.requant_count_base = is_global_pool(l, d.tensors[l.inputs[0]]) ? int(l.kernel_h * l.kernel_w) : 1;
         break;
       }
       case LayerType::kUpsample: {
@@ -210,6 +216,16 @@ Status Executor::bind() {
         s.upsample_args.in = view(l.inputs[0]);
         s.upsample_args.out = mut_view(l.output);
         s.upsample_args.factor = int(l.factor);
+        break;
+      }
+      case LayerType::kResizeBilinear: {
+        const auto* v = pick(kResizeBilinearI8Variants, options_.max_isa);
+        s.resize = v->fn;
+        s.variant_name = v->name;
+        s.resize_args.in = view(l.inputs[0]);
+        s.resize_args.out = mut_view(l.output);
+        s.resize_args.taps_y = p.resize_taps.data();                 // out.h entries
+        s.resize_args.taps_x = p.resize_taps.data() + s.resize_args.out.h;  // out.w entries
         break;
       }
       case LayerType::kSoftmax: {
@@ -269,6 +285,7 @@ void Executor::run_layers(float* probs) {
       case LayerType::kMaxPool:
       case LayerType::kAvgPool: s.pool(s.pool_args); break;
       case LayerType::kUpsample: s.upsample(s.upsample_args); break;
+      case LayerType::kResizeBilinear: s.resize(s.resize_args); break;
       case LayerType::kSoftmax:
         s.softmax_args.out = probs;
         s.softmax(s.softmax_args);

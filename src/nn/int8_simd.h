@@ -1,5 +1,5 @@
 // Vector operations on blocks of int8 channels, per ISA, shared by the SIMD variants of clamp_i8,
-// concat_i8, avgpool_i8 and upsample_{nearest,bilinear}_i8. Each op writes its arithmetic once
+// concat_i8, avgpool_i8, upsample_{nearest,bilinear}_i8 and resize_bilinear_i8. Each op writes its arithmetic once
 // (in its own `<op>_simd.h`) over the operations below; each ISA file picks the block types.
 //
 // A *width class* holds the arithmetic on one register width (static functions):
@@ -17,6 +17,13 @@
 //   splat32 zero32 add32 sub32 splatf cvtf mulf maxf minf cvt_round   int32 / float32 lanes; cvt_round
 //                                            rounds half to even (CVTPS2DQ in the default MXCSR,
 //                                            NEON FCVTNS), as round_half_even_small (requantize.h)
+//   lerp_weights lerp_u8<k>                  w0 * (a + 128) + w1 * (b + 128) in int32 lanes for int8 a,
+//                                            b and weights 0..2048 (exact: below 2^19), quarter k of
+//                                            the block in *lane order*: bytes 4k..4k+3 of every
+//                                            128-bit lane (the natural order on 128-bit registers)
+//   mul32 shl32<s> shr32<s>                  int32 lanes: wrapping product, shifts (shr32 logical)
+//   narrow_u8_flip32(q0, q1, q2, q3)         int32 lanes in [0, 255], quarters in lane order (as
+//                                            lerp_u8 makes them) -> bytes - 128, as int8, in order
 // A *block type* is a width class plus `kLanes` (bytes it moves) and load(p) / store(p, R) of those
 // bytes; a block narrower than its register (X8, X4) leaves the other lanes zero on load and never
 // stores them. The AVX-512 masked block (XM16) carries a byte mask: it reads and writes only its
@@ -146,6 +153,26 @@ struct SimdX128 {
   static F maxf(F a, F b) { return _mm_max_ps(a, b); }
   static F minf(F a, F b) { return _mm_min_ps(a, b); }
   static Q cvt_round(F a) { return _mm_cvtps_epi32(a); }
+  // The weight pair (w0, w1) as int16 in every int32 lane; lerp_u8: the flipped bytes (q + 128,
+  // unsigned) interleaved a, b and zero-extended to int16 pairs, then PMADDWD (|w| <= 2048 and
+  // u <= 255 are within int16; the sum is below 2^20).
+  using LW = __m128i;
+  static LW lerp_weights(int w0, int w1) { return _mm_set1_epi32(static_cast<int>(uint32_t(w0) | uint32_t(w1) << 16)); }
+  template <int k>
+  static Q lerp_u8(R a, R b, LW w) {
+    const __m128i flip = _mm_set1_epi8(-128), zero = _mm_setzero_si128();
+    const __m128i au = _mm_xor_si128(a, flip), bu = _mm_xor_si128(b, flip);
+    const __m128i ab = k < 2 ? _mm_unpacklo_epi8(au, bu) : _mm_unpackhi_epi8(au, bu);
+    return _mm_madd_epi16(k % 2 ? _mm_unpackhi_epi8(ab, zero) : _mm_unpacklo_epi8(ab, zero), w);
+  }
+  static Q mul32(Q a, Q b) { return _mm_mullo_epi32(a, b); }
+  template <int s>
+  static Q shl32(Q a) { return _mm_slli_epi32(a, s); }
+  template <int s>
+  static Q shr32(Q a) { return _mm_srli_epi32(a, s); }
+  static R narrow_u8_flip32(Q a, Q b, Q c, Q d) {
+    return _mm_xor_si128(_mm_packus_epi16(_mm_packus_epi32(a, b), _mm_packus_epi32(c, d)), _mm_set1_epi8(-128));
+  }
 };
 
 struct X16 : SimdX128 {
@@ -217,6 +244,26 @@ struct SimdY256 {
   static F maxf(F a, F b) { return _mm256_max_ps(a, b); }
   static F minf(F a, F b) { return _mm256_min_ps(a, b); }
   static Q cvt_round(F a) { return _mm256_cvtps_epi32(a); }
+  // As SimdX128; the unpacks and packs work within 128-bit lanes, so the quarters are in lane order
+  // and narrow_u8_flip32's in-lane packs put the bytes back in memory order without a permute.
+  using LW = __m256i;
+  static LW lerp_weights(int w0, int w1) { return _mm256_set1_epi32(static_cast<int>(uint32_t(w0) | uint32_t(w1) << 16)); }
+  template <int k>
+  static Q lerp_u8(R a, R b, LW w) {
+    const __m256i flip = _mm256_set1_epi8(-128), zero = _mm256_setzero_si256();
+    const __m256i au = _mm256_xor_si256(a, flip), bu = _mm256_xor_si256(b, flip);
+    const __m256i ab = k < 2 ? _mm256_unpacklo_epi8(au, bu) : _mm256_unpackhi_epi8(au, bu);
+    return _mm256_madd_epi16(k % 2 ? _mm256_unpackhi_epi8(ab, zero) : _mm256_unpacklo_epi8(ab, zero), w);
+  }
+  static Q mul32(Q a, Q b) { return _mm256_mullo_epi32(a, b); }
+  template <int s>
+  static Q shl32(Q a) { return _mm256_slli_epi32(a, s); }
+  template <int s>
+  static Q shr32(Q a) { return _mm256_srli_epi32(a, s); }
+  static R narrow_u8_flip32(Q a, Q b, Q c, Q d) {
+    return _mm256_xor_si256(_mm256_packus_epi16(_mm256_packus_epi32(a, b), _mm256_packus_epi32(c, d)),
+                            _mm256_set1_epi8(-128));
+  }
 };
 
 struct Y32 : SimdY256 {
@@ -268,6 +315,25 @@ struct SimdZ512 {
   static F maxf(F a, F b) { return _mm512_max_ps(a, b); }
   static F minf(F a, F b) { return _mm512_min_ps(a, b); }
   static Q cvt_round(F a) { return _mm512_cvtps_epi32(a); }
+  // As SimdY256, in four 128-bit lanes.
+  using LW = __m512i;
+  static LW lerp_weights(int w0, int w1) { return _mm512_set1_epi32(static_cast<int>(uint32_t(w0) | uint32_t(w1) << 16)); }
+  template <int k>
+  static Q lerp_u8(R a, R b, LW w) {
+    const __m512i flip = _mm512_set1_epi8(-128), zero = _mm512_setzero_si512();
+    const __m512i au = _mm512_xor_si512(a, flip), bu = _mm512_xor_si512(b, flip);
+    const __m512i ab = k < 2 ? _mm512_unpacklo_epi8(au, bu) : _mm512_unpackhi_epi8(au, bu);
+    return _mm512_madd_epi16(k % 2 ? _mm512_unpackhi_epi8(ab, zero) : _mm512_unpacklo_epi8(ab, zero), w);
+  }
+  static Q mul32(Q a, Q b) { return _mm512_mullo_epi32(a, b); }
+  template <int s>
+  static Q shl32(Q a) { return _mm512_slli_epi32(a, s); }
+  template <int s>
+  static Q shr32(Q a) { return _mm512_srli_epi32(a, s); }
+  static R narrow_u8_flip32(Q a, Q b, Q c, Q d) {
+    return _mm512_xor_si512(_mm512_packus_epi16(_mm512_packus_epi32(a, b), _mm512_packus_epi32(c, d)),
+                            _mm512_set1_epi8(-128));
+  }
 };
 
 struct Z64 : SimdZ512 {
@@ -355,6 +421,34 @@ struct SimdN128 {
   static F maxf(F a, F b) { return vmaxq_f32(a, b); }
   static F minf(F a, F b) { return vminq_f32(a, b); }
   static Q cvt_round(F a) { return vcvtnq_s32_f32(a); }
+  // UMULL / UMLAL on the flipped bytes (q + 128) widened to uint16: natural order, weights <= 2048
+  // and the sum below 2^20 in uint32 lanes.
+  struct LW {
+    uint16x4_t w0, w1;
+  };
+  static LW lerp_weights(int w0, int w1) {
+    return LW{vdup_n_u16(static_cast<uint16_t>(w0)), vdup_n_u16(static_cast<uint16_t>(w1))};
+  }
+  template <int k>
+  static Q lerp_u8(R a, R b, LW w) {
+    const uint8x16_t flip = vdupq_n_u8(0x80);
+    const uint8x16_t au = veorq_u8(vreinterpretq_u8_s8(a), flip), bu = veorq_u8(vreinterpretq_u8_s8(b), flip);
+    const uint16x8_t a16 = k < 2 ? vmovl_u8(vget_low_u8(au)) : vmovl_u8(vget_high_u8(au));
+    const uint16x8_t b16 = k < 2 ? vmovl_u8(vget_low_u8(bu)) : vmovl_u8(vget_high_u8(bu));
+    const uint16x4_t a4 = k % 2 ? vget_high_u16(a16) : vget_low_u16(a16);
+    const uint16x4_t b4 = k % 2 ? vget_high_u16(b16) : vget_low_u16(b16);
+    return vreinterpretq_s32_u32(vmlal_u16(vmull_u16(a4, w.w0), b4, w.w1));
+  }
+  static Q mul32(Q a, Q b) { return vmulq_s32(a, b); }
+  template <int s>
+  static Q shl32(Q a) { return vshlq_n_s32(a, s); }
+  template <int s>
+  static Q shr32(Q a) { return vreinterpretq_s32_u32(vshrq_n_u32(vreinterpretq_u32_s32(a), s)); }
+  static R narrow_u8_flip32(Q a, Q b, Q c, Q d) {
+    const uint16x8_t lo = vcombine_u16(vmovn_u32(vreinterpretq_u32_s32(a)), vmovn_u32(vreinterpretq_u32_s32(b)));
+    const uint16x8_t hi = vcombine_u16(vmovn_u32(vreinterpretq_u32_s32(c)), vmovn_u32(vreinterpretq_u32_s32(d)));
+    return vreinterpretq_s8_u8(veorq_u8(vcombine_u8(vmovn_u16(lo), vmovn_u16(hi)), vdupq_n_u8(0x80)));
+  }
 };
 
 struct N16 : SimdN128 {

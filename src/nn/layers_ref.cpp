@@ -122,14 +122,14 @@ void avgpool_i8_ref(const PoolArgs& a) {
   for (int oy = 0; oy < a.out.h; ++oy)
     for (int ox = 0; ox < a.out.w; ++ox)
       for (int c = 0; c < a.out.c; ++c) {
-        int32_t sum = 0;  // |sum| <= 255 * 31 * 31
+        int32_t sum = 0;  // |sum| <= 255 * 256 * 256 < 2^31 (global pools up to 256 x 256)
         int count = 0;
         for_window(a, oy, ox, [&](int iy, int ix) {
           sum += int32_t(a.in.data[at(a.in.w, a.in.c, iy, ix) + c]) - a.in.zero_point;
           ++count;
         });
-        // count >= 1: the loader keeps padding below the window size.
-        const Requant rq = a.requant_by_count[count - 1];
+        // count >= 1: the loader keeps padding below the window size; count >= the table's base.
+        const Requant rq = a.requant_by_count[count - a.requant_count_base];
         a.out.data[at(a.out.w, a.out.c, oy, ox) + c] = requantize(sum, rq, a.out.zero_point, -128, 127);
       }
 }
@@ -176,6 +176,29 @@ void upsample_bilinear_i8_ref(const UpsampleArgs& a) {
         // Interpolate u = q + 128 in [0, 255] so the division is of a non-negative number; round half up.
         const int32_t num = w00 * (p00[c] + 128) + w01 * (p01[c] + 128) + w10 * (p10[c] + 128) + w11 * (p11[c] + 128);
         dst[c] = static_cast<int8_t>((num + denom / 2) / denom - 128);
+      }
+    }
+  }
+}
+
+void resize_bilinear_i8_ref(const ResizeArgs& a) {
+  constexpr int32_t one = kResizeOne;
+  for (int oy = 0; oy < a.out.h; ++oy) {
+    const ResizeTap ty = resize_tap(oy, a.in.h, a.out.h);
+    for (int ox = 0; ox < a.out.w; ++ox) {
+      const ResizeTap tx = resize_tap(ox, a.in.w, a.out.w);
+      const int8_t* p00 = a.in.data + at(a.in.w, a.in.c, ty.i0, tx.i0);
+      const int8_t* p01 = a.in.data + at(a.in.w, a.in.c, ty.i0, tx.i1);
+      const int8_t* p10 = a.in.data + at(a.in.w, a.in.c, ty.i1, tx.i0);
+      const int8_t* p11 = a.in.data + at(a.in.w, a.in.c, ty.i1, tx.i1);
+      int8_t* dst = a.out.data + at(a.out.w, a.out.c, oy, ox);
+      for (int c = 0; c < a.out.c; ++c) {
+        // u = q + 128 in [0, 255]: each row blend is below 2048 * 256 = 2^19, the whole sum at most
+        // 2^22 * 255 < 2^31, so int32 is exact; round half up, then back to int8.
+        const int32_t row0 = (one - tx.w) * (p00[c] + 128) + tx.w * (p01[c] + 128);
+        const int32_t row1 = (one - tx.w) * (p10[c] + 128) + tx.w * (p11[c] + 128);
+        const int32_t num = (one - ty.w) * row0 + ty.w * row1;
+        dst[c] = static_cast<int8_t>(((num + (1 << (kResizeShift - 1))) >> kResizeShift) - 128);
       }
     }
   }

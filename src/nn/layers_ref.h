@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "nn/requantize.h"
+#include "nn/resize_taps.h"
 
 namespace ef::nn {
 
@@ -85,7 +86,11 @@ struct PoolArgs {
   TensorI8 in;
   MutTensorI8 out;
   int kernel_h = 1, kernel_w = 1, stride_h = 1, stride_w = 1, pad_top = 0, pad_left = 0;
-  const Requant* requant_by_count = nullptr;  // avg: entry n-1 for a window of n input positions
+  // avg: entry n - requant_count_base for a window of n input positions. The loader's table starts
+  // at 1 (every count 1..kh*kw), except for a global pool (window = input, no padding), whose only
+  // count is kh*kw: one entry, base kh*kw (docs/model_format.md 3.6).
+  const Requant* requant_by_count = nullptr;
+  int requant_count_base = 1;
 };
 using PoolI8Fn = void (*)(const PoolArgs&);
 void maxpool_i8_ref(const PoolArgs& a);
@@ -100,6 +105,20 @@ struct UpsampleArgs {
 using UpsampleI8Fn = void (*)(const UpsampleArgs&);
 void upsample_nearest_i8_ref(const UpsampleArgs& a);
 void upsample_bilinear_i8_ref(const UpsampleArgs& a);
+
+// Bilinear resize to any output size (TensorFlow align_corners, docs/model_format.md 3.9); in and out
+// share their quantisation and channels. Each output pixel blends four input pixels with the taps of
+// nn/resize_taps.h: out = ((sum of weight products * (q + 128)) + 2^21) >> 22, minus 128.
+struct ResizeArgs {
+  TensorI8 in;
+  MutTensorI8 out;
+  // out.h row taps, then out.w column taps (resize_tap of each index), as the loader computed them.
+  // The SIMD variants read these; the reference recomputes every tap from resize_tap().
+  const ResizeTap* taps_y = nullptr;
+  const ResizeTap* taps_x = nullptr;
+};
+using ResizeI8Fn = void (*)(const ResizeArgs&);
+void resize_bilinear_i8_ref(const ResizeArgs& a);
 
 // Per-pixel softmax over channels into float probabilities (HWC, classes innermost).
 struct SoftmaxArgs {

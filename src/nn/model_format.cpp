@@ -1,4 +1,4 @@
-// .efm v1 writer, reader and validator. The byte layout is specified in docs/model_format.md; the
+// .efm writer, reader and validator (versions 1 and 2). The byte layout is specified in docs/model_format.md; the
 // reader trusts nothing: every count, index, offset and size is checked before it is used.
 #include "nn/model_format.h"
 
@@ -22,6 +22,7 @@ const char* layer_type_name(LayerType t) {
     case LayerType::kAvgPool: return "avg_pool";
     case LayerType::kUpsample: return "upsample";
     case LayerType::kSoftmax: return "softmax";
+    case LayerType::kResizeBilinear: return "resize_bilinear";
   }
   return "unknown";
 }
@@ -54,6 +55,7 @@ constexpr uint32_t kTagMeta = fourcc("META");
 constexpr uint32_t kTagTens = fourcc("TENS");
 constexpr uint32_t kTagLayr = fourcc("LAYR");
 constexpr uint32_t kTagWght = fourcc("WGHT");
+constexpr uint32_t kTagCmap = fourcc("CMAP");
 
 // ---------------------------------------------------------------------------------------------
 // Messages: "<file>: <section>: <what>".
@@ -166,8 +168,17 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
     return {};
   };
   const auto check_window = [&](bool conv) -> Status {
-    if (l.kernel_h < 1 || l.kernel_w < 1 || l.kernel_h > kMaxKernel || l.kernel_w > kMaxKernel)
-      return bad("kernel " + std::to_string(l.kernel_h) + "x" + std::to_string(l.kernel_w) + " outside 1.." + std::to_string(kMaxKernel));
+    // A global average pool may exceed kMaxKernel (up to kMaxGlobalPool: its sums stay in int32).
+    const bool global = is_global_pool(l, in0);
+    const uint32_t max_k = global ? kMaxGlobalPool : kMaxKernel;
+    if (l.kernel_h < 1 || l.kernel_w < 1 || l.kernel_h > max_k || l.kernel_w > max_k)
+      return bad("kernel " + std::to_string(l.kernel_h) + "x" + std::to_string(l.kernel_w) + " outside 1.." +
+                 std::to_string(max_k) +
+                 (global ? " (global average pool)"
+                         : l.type == LayerType::kAvgPool
+                               ? " (up to " + std::to_string(kMaxGlobalPool) + " only for a global average pool: window = "
+                                     "input H x W, stride 1, no padding)"
+                               : ""));
     if (l.stride_h < 1 || l.stride_w < 1 || l.stride_h > kMaxStride || l.stride_w > kMaxStride)
       return bad("stride outside 1.." + std::to_string(kMaxStride));
     const uint32_t dh = conv ? l.dilation_h : 1, dw = conv ? l.dilation_w : 1;
@@ -283,11 +294,14 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
       if (l.type == LayerType::kMaxPool) {
         if (!same_quant(in0, out)) return bad("input and output quantisation must match");
       } else {
+        // One multiplier per window count that can occur: 1..kh*kw, or kh*kw alone for a global pool
+        // (PoolArgs::requant_count_base).
         const uint32_t window = l.kernel_h * l.kernel_w;
-        prep.requant.resize(window);
-        for (uint32_t k = 1; k <= window; ++k) {
+        const uint32_t first = is_global_pool(l, in0) ? window : 1;
+        prep.requant.resize(window - first + 1);
+        for (uint32_t k = first; k <= window; ++k) {
           const double m = double(in0.scale) / double(out.scale) / double(k);
-          if (!make_multiplier(m, &prep.requant[k - 1].multiplier))
+          if (!make_multiplier(m, &prep.requant[k - first].multiplier))
             return bad("input/output scale ratio over a window of " + std::to_string(k) + " (" + std::to_string(m) +
                        ") is not a normal float32 below 2^24");
         }
@@ -301,6 +315,20 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
         return bad("output " + shape_str(out) + " is not input " + shape_str(in0) + " times " + std::to_string(l.factor));
       if (!same_quant(in0, out)) return bad("input and output quantisation must match");
       break;
+    case LayerType::kResizeBilinear:
+      // Any output size (the tensor checks keep H and W in 1..kMaxDim); channels and quantisation kept.
+      if (in0.c != out.c)
+        return bad("changes channels " + std::to_string(in0.c) + " -> " + std::to_string(out.c) + " (" +
+                   shape_str(in0) + " -> " + shape_str(out) + ")");
+      if (!same_quant(in0, out))
+        return bad("input and output quantisation must match (scale " + std::to_string(in0.scale) + " zero point " +
+                   std::to_string(in0.zero_point) + " -> scale " + std::to_string(out.scale) + " zero point " +
+                   std::to_string(out.zero_point) + ")");
+      prep.resize_taps.resize(std::size_t(out.h) + out.w);
+      for (uint32_t o = 0; o < out.h; ++o) prep.resize_taps[o] = resize_tap(int32_t(o), int32_t(in0.h), int32_t(out.h));
+      for (uint32_t o = 0; o < out.w; ++o)
+        prep.resize_taps[out.h + o] = resize_tap(int32_t(o), int32_t(in0.w), int32_t(out.w));
+      break;
     case LayerType::kSoftmax:
       if (in0.h != out.h || in0.w != out.w || in0.c != out.c) return bad("shape " + shape_str(in0) + " -> " + shape_str(out));
       prep.exp_table.resize(256);
@@ -310,7 +338,35 @@ Status check_layer(const ModelDesc& d, std::size_t li, const std::string& file, 
   return {};
 }
 
+// The optional class map (CMAP): both lists empty, or one target class per output channel, each
+// below the number of target class names.
+Status check_class_map(const ModelDesc& d, const std::string& file) {
+  if (d.class_map.empty() && d.target_class_names.empty()) return {};
+  if (d.class_map.empty() || d.target_class_names.empty())
+    return fault(file, "CMAP", "a class map needs target class names and the reverse (" + std::to_string(d.class_map.size()) +
+                                   " map entries, " + std::to_string(d.target_class_names.size()) + " target names)");
+  if (d.target_class_names.size() > kMaxClasses)
+    return fault(file, "CMAP", std::to_string(d.target_class_names.size()) + " target classes, allowed 1.." + std::to_string(kMaxClasses));
+  for (std::size_t i = 0; i < d.target_class_names.size(); ++i)
+    if (d.target_class_names[i].empty() || d.target_class_names[i].size() > kMaxClassNameBytes)
+      return fault(file, "CMAP", "target class " + std::to_string(i) + " name empty or longer than " +
+                                     std::to_string(kMaxClassNameBytes) + " bytes");
+  const std::size_t outputs = d.tensors[d.output_tensor].c;
+  if (d.class_map.size() != outputs)
+    return fault(file, "CMAP", std::to_string(d.class_map.size()) + " map entries but the output has " + std::to_string(outputs) + " channels");
+  for (std::size_t k = 0; k < d.class_map.size(); ++k)
+    if (d.class_map[k] >= d.target_class_names.size())
+      return fault(file, "CMAP", "output channel " + std::to_string(k) + " maps to class " + std::to_string(d.class_map[k]) +
+                                     ", beyond the " + std::to_string(d.target_class_names.size()) + " target classes");
+  return {};
+}
+
 }  // namespace
+
+bool is_global_pool(const LayerDesc& l, const TensorDesc& in) {
+  return l.type == LayerType::kAvgPool && l.kernel_h == in.h && l.kernel_w == in.w && l.stride_h == 1 &&
+         l.stride_w == 1 && l.pad_top == 0 && l.pad_left == 0 && l.pad_bottom == 0 && l.pad_right == 0;
+}
 
 // -----------------------------------------------------------------------------------------------
 Result<Model> prepare_model(ModelDesc d, const std::string& file) {
@@ -354,6 +410,7 @@ Result<Model> prepare_model(ModelDesc d, const std::string& file) {
   for (std::size_t i = 0; i < d.class_names.size(); ++i)
     if (d.class_names[i].empty() || d.class_names[i].size() > kMaxClassNameBytes)
       return fault(file, "META", "class " + std::to_string(i) + " name empty or longer than " + std::to_string(kMaxClassNameBytes) + " bytes");
+  EF_RETURN_IF_ERROR(check_class_map(d, file));
 
   // Layers: indices, order (no forward references, hence no cycles), single producer.
   if (d.layers.empty() || d.layers.size() > kMaxLayers)
@@ -399,7 +456,7 @@ Result<std::string> serialize_model(const ModelDesc& desc) {
 }
 
 std::string serialize_model_unchecked(const ModelDesc& desc) {
-  Writer meta, tens, layr, wght;
+  Writer meta, tens, layr, wght, cmap;
   meta.u16(static_cast<uint16_t>(desc.name.size()));
   meta.bytes(desc.name.data(), desc.name.size());
   meta.u32(desc.input_tensor);
@@ -440,16 +497,27 @@ std::string serialize_model_unchecked(const ModelDesc& desc) {
     }
   }
 
+  // Version 2 only with a class map, so that a model without one keeps its version 1 bytes.
+  const bool has_map = !desc.class_map.empty() || !desc.target_class_names.empty();
+  if (has_map) {
+    cmap.u32(static_cast<uint32_t>(desc.target_class_names.size()));
+    for (const auto& n : desc.target_class_names) { cmap.u8(static_cast<uint8_t>(n.size())); cmap.bytes(n.data(), n.size()); }
+    cmap.u32(static_cast<uint32_t>(desc.class_map.size()));
+    cmap.bytes(desc.class_map.data(), desc.class_map.size());
+  }
+
   Writer payload;
-  const std::pair<uint32_t, Writer*> sections[] = {{kTagMeta, &meta}, {kTagTens, &tens}, {kTagLayr, &layr}, {kTagWght, &wght}};
+  const std::pair<uint32_t, Writer*> sections[] = {
+      {kTagMeta, &meta}, {kTagTens, &tens}, {kTagLayr, &layr}, {kTagWght, &wght}, {kTagCmap, &cmap}};
   for (const auto& [tag, w] : sections) {
+    if (tag == kTagCmap && !has_map) break;
     payload.u32(tag);
     payload.u32(static_cast<uint32_t>(w->str().size()));
     payload.bytes(w->str().data(), w->str().size());
   }
   Writer file;
   file.bytes(kEfmMagic, 4);
-  file.u32(kEfmVersion);
+  file.u32(has_map ? kEfmVersionClassMap : kEfmVersion);
   file.u32(static_cast<uint32_t>(payload.str().size()));
   file.u32(crc32(payload.str().data(), payload.str().size()));
   file.bytes(payload.str().data(), payload.str().size());
@@ -465,8 +533,9 @@ Result<Model> load_model_memory(const void* bytes, std::size_t size, const std::
   Reader hdr(p + 4, kEfmHeaderBytes - 4);
   uint32_t version = 0, payload_size = 0, crc = 0;
   (void)(hdr.u32(version) && hdr.u32(payload_size) && hdr.u32(crc));
-  if (version != kEfmVersion)
-    return error(ErrorCode::kUnsupported, file + ": header: version " + std::to_string(version) + ", this build reads " + std::to_string(kEfmVersion));
+  if (version != kEfmVersion && version != kEfmVersionClassMap)
+    return error(ErrorCode::kUnsupported, file + ": header: version " + std::to_string(version) + ", this build reads " +
+                                              std::to_string(kEfmVersion) + " and " + std::to_string(kEfmVersionClassMap));
   if (payload_size > kMaxPayloadBytes) return fault(file, "header", "payload size " + std::to_string(payload_size) + " above the limit");
   if (size - kEfmHeaderBytes != payload_size)
     return fault(file, "header", "payload size " + std::to_string(payload_size) + " but the file holds " +
@@ -474,12 +543,13 @@ Result<Model> load_model_memory(const void* bytes, std::size_t size, const std::
   const unsigned char* payload = p + kEfmHeaderBytes;
   if (crc32(payload, payload_size) != crc) return fault(file, "header", "payload CRC32 mismatch (corrupt file)");
 
-  // Sections, in their fixed order.
-  const uint32_t tags[4] = {kTagMeta, kTagTens, kTagLayr, kTagWght};
-  const char* names[4] = {"META", "TENS", "LAYR", "WGHT"};
+  // Sections, in their fixed order: four in version 1, the class map fifth in version 2.
+  const uint32_t tags[5] = {kTagMeta, kTagTens, kTagLayr, kTagWght, kTagCmap};
+  const char* names[5] = {"META", "TENS", "LAYR", "WGHT", "CMAP"};
+  const int sections = version == kEfmVersionClassMap ? 5 : 4;
   Reader top(payload, payload_size);
-  Reader body[4] = {{nullptr, 0}, {nullptr, 0}, {nullptr, 0}, {nullptr, 0}};
-  for (int s = 0; s < 4; ++s) {
+  Reader body[5] = {{nullptr, 0}, {nullptr, 0}, {nullptr, 0}, {nullptr, 0}, {nullptr, 0}};
+  for (int s = 0; s < sections; ++s) {
     uint32_t tag = 0, len = 0;
     if (!top.u32(tag) || !top.u32(len)) return fault(file, names[s], "truncated section header");
     if (tag != tags[s]) return fault(file, names[s], "expected section " + std::string(names[s]) + " here (sections must come in order)");
@@ -598,6 +668,28 @@ Result<Model> load_model_memory(const void* bytes, std::size_t size, const std::
     }
     if (r.left() != 0) return fault(file, "LAYR", std::to_string(r.left()) + " unexpected bytes at the end");
   }
+  // CMAP (version 2): target class names, then one target class per output channel.
+  if (sections == 5) {
+    Reader& r = body[4];
+    uint32_t targets = 0;
+    if (!r.u32(targets)) return trunc("CMAP", "target class count");
+    if (targets < 1 || targets > kMaxClasses)
+      return fault(file, "CMAP", std::to_string(targets) + " target classes, allowed 1.." + std::to_string(kMaxClasses));
+    d.target_class_names.resize(targets);
+    for (uint32_t i = 0; i < targets; ++i) {
+      uint8_t len = 0;
+      if (!r.u8(len)) return trunc("CMAP", "target class name " + std::to_string(i));
+      d.target_class_names[i].resize(len);
+      if (!r.bytes(d.target_class_names[i].data(), len)) return trunc("CMAP", "target class name " + std::to_string(i));
+    }
+    uint32_t entries = 0;
+    if (!r.u32(entries)) return trunc("CMAP", "map entry count");
+    if (entries < 1 || entries > kMaxClasses)
+      return fault(file, "CMAP", std::to_string(entries) + " map entries, allowed 1.." + std::to_string(kMaxClasses));
+    d.class_map.resize(entries);
+    if (!r.bytes(d.class_map.data(), entries)) return trunc("CMAP", "class map");
+    if (r.left() != 0) return fault(file, "CMAP", std::to_string(r.left()) + " unexpected bytes at the end");
+  }
   return prepare_model(std::move(d), file);
 }
 
@@ -621,7 +713,9 @@ std::size_t Model::bytes() const {
     b += l.weights.size() + l.bias.size() * sizeof(int32_t) + l.weight_scales.size() * sizeof(float);
   for (const PreparedLayer& p : prepared)
     b += p.requant.size() * sizeof(Requant) + p.packed.size() + p.bias.size() * sizeof(int32_t) +
-         p.exp_table.size() * sizeof(float);
+         p.exp_table.size() * sizeof(float) + p.resize_taps.size() * sizeof(ResizeTap);
+  b += desc.class_map.size();
+  for (const std::string& n : desc.target_class_names) b += n.size();
   b += desc.tensors.size() * sizeof(TensorDesc) + desc.layers.size() * sizeof(LayerDesc);
   return b;
 }

@@ -1,6 +1,8 @@
-// The .efm v1 model file (docs/model_format.md): what it describes (ModelDesc), a writer, and a
+// The .efm model file (docs/model_format.md): what it describes (ModelDesc), a writer, and a
 // loader that validates everything and prepares a Model (requantisation multipliers computed,
-// weights repacked) ready for the executor.
+// weights repacked, resize taps tabulated) ready for the executor. Version 1 has four sections;
+// version 2 is version 1 plus a fifth, the class map (CMAP). The writer emits version 1 for a model
+// without a class map (the same bytes as before version 2 existed) and version 2 otherwise.
 //
 // Threads: every function here is re-entrant; a Model is immutable after load and may be shared by
 // executors on several threads.
@@ -13,11 +15,13 @@
 
 #include "core/result.h"
 #include "nn/requantize.h"
+#include "nn/resize_taps.h"
 
 namespace ef::nn {
 
 inline constexpr char kEfmMagic[4] = {'E', 'F', 'M', '1'};
-inline constexpr uint32_t kEfmVersion = 1;
+inline constexpr uint32_t kEfmVersion = 1;          // META, TENS, LAYR, WGHT
+inline constexpr uint32_t kEfmVersionClassMap = 2;  // the same plus CMAP (ModelDesc::class_map)
 inline constexpr std::size_t kEfmHeaderBytes = 16;  // magic, version, payload size, payload CRC32
 
 // Limits the loader enforces (so that sizes cannot overflow and a hostile file cannot ask for
@@ -31,6 +35,10 @@ inline constexpr uint32_t kMaxClasses = 256;
 inline constexpr uint32_t kMaxNameBytes = 255;       // model name
 inline constexpr uint32_t kMaxClassNameBytes = 63;
 inline constexpr uint32_t kMaxKernel = 31;           // kernel height / width
+// A global average pool (window = the input's H x W, stride 1, no padding) may be larger than
+// kMaxKernel, up to this per side: its int32 sum stays below 255 * 256 * 256 < 2^31, and it needs
+// one multiplier only (PreparedLayer::requant), so no table grows with the window.
+inline constexpr uint32_t kMaxGlobalPool = 256;
 inline constexpr uint32_t kMaxStride = 8;
 inline constexpr uint32_t kMaxDilation = 16;
 inline constexpr uint32_t kMaxPad = 64;
@@ -52,8 +60,9 @@ enum class LayerType : uint8_t {
   kAvgPool = 7,         // the average over the window positions inside the input
   kUpsample = 8,        // integer factor, nearest or bilinear (half-pixel centres)
   kSoftmax = 9,         // the output stage: int8 logits -> float probabilities over channels
+  kResizeBilinear = 10, // to the output's H x W (any size), align_corners; same quantisation in and out
 };
-inline constexpr uint8_t kNumLayerTypes = 10;
+inline constexpr uint8_t kNumLayerTypes = 11;
 const char* layer_type_name(LayerType t);
 
 // What the out_min/out_max range of a layer stands for. Informative only: the arithmetic uses the
@@ -101,6 +110,14 @@ struct ModelDesc {
   std::vector<float> input_mean;
   std::vector<float> input_scale;
   std::vector<std::string> class_names;  // one per output channel
+  // Optional (version 2 files): the class each output channel contributes to in the runtime's label
+  // set (e.g. 0 = unknown, 1..13 the NYUv2 classes of core/classes.h), so that a network with more
+  // outputs than the fusion has classes (ADE20K's 151) can feed it: the probabilities of the channels
+  // mapping to a class are summed. Empty: output channel k is class k. Otherwise one entry per
+  // output channel, each < target_class_names.size() (<= kMaxClasses), and target_class_names names
+  // the target classes (1..kMaxClassNameBytes bytes each); both empty or both non-empty.
+  std::vector<uint8_t> class_map;
+  std::vector<std::string> target_class_names;
   uint32_t input_tensor = 0;
   uint32_t output_tensor = 0;
   std::vector<TensorDesc> tensors;  // id = index
@@ -113,11 +130,17 @@ uint32_t crc32(const void* data, std::size_t size);
 // Layer data derived at load: multipliers, repacked weights, tables. See docs/model_format.md.
 struct PreparedLayer {
   std::vector<Requant> requant;    // conv: per output channel; add: 2 (one per input); concat: per
-                                   // input; avgpool: entry k-1 for a window of k positions
+                                   // input; avgpool: entry k-1 for a window of k positions, or one
+                                   // entry (the count kh*kw) for a global pool (is_global_pool)
   std::vector<int8_t> packed;      // weights in the file layout (the executor repacks them per kernel variant)
   std::vector<int32_t> bias;
   std::vector<float> exp_table;    // softmax: 256 entries, exp(-scale * d)
+  std::vector<ResizeTap> resize_taps;  // resize_bilinear: out.h row taps, then out.w column taps
 };
+
+// True when avg_pool layer `l` on input `in` is a global pool: the window is the input's H x W, with
+// stride 1 and no padding (one output pixel, one window count).
+bool is_global_pool(const LayerDesc& l, const TensorDesc& in);
 
 // A validated model.
 struct Model {
@@ -126,11 +149,12 @@ struct Model {
   std::vector<PreparedLayer> prepared;  // one per layer
 
   // Bytes of its arrays: the file's weights, biases and scales, their prepared copies
-  // (requantisation, packed weights, biases, tables) and the tensor and layer tables.
+  // (requantisation, packed weights, biases, tables, resize taps), the class map and the tensor and
+  // layer tables.
   std::size_t bytes() const;
 };
 
-// Writes the .efm v1 bytes of `desc`. Validates first (the same checks as the loader), so that a
+// Writes the .efm bytes of `desc` (version 1, or 2 when it has a class map). Validates first (the same checks as the loader), so that a
 // writer can never produce a file the loader refuses; the error names "<desc.name>" as the file.
 Result<std::string> serialize_model(const ModelDesc& desc);
 

@@ -1,0 +1,19 @@
+// resize_bilinear_i8 at the AVX-512 level (needs BW and VL only; named __avx512vnni, see
+// kernels/variants.h): per output pixel, 64-channel blocks, then the overlapping 32- and 16-channel
+// tail blocks, or one byte-masked xmm when C < 16; arithmetic as the AVX2 variant. The loop nest is
+// nn/resize_bilinear_i8_simd.h.
+//
+// GCC 12 warns (-Wmaybe-uninitialized, and -Wuninitialized at -O1, an error in the debug build) about
+// the unmasked forms of several AVX-512 intrinsics, which merge into _mm512_undefined_*(); the
+// warning is false (every lane is written).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+
+#include "nn/eltwise_kernels.h"
+#include "nn/resize_bilinear_i8_simd.h"
+
+namespace ef::nn {
+
+void resize_bilinear_i8__avx512vnni(const ResizeArgs& a) { resize_bilinear_rows<MaskedBlocks>(a); }
+
+}  // namespace ef::nn
