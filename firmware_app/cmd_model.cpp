@@ -35,8 +35,10 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kPython = "/usr/bin/python3";
-constexpr const char* kImportModule = "edgefusion_models.import_onnx";
-// Debian packages the importer runs on (python3 itself, ONNX, NumPy, OpenCV for the calibration frames).
+constexpr const char* kOnnxModule = "edgefusion_models.import_onnx";
+constexpr const char* kTfliteModule = "edgefusion_models.import_tflite";
+// Debian packages the importers run on (python3 itself, NumPy, OpenCV for the calibration frames;
+// ONNX for the ONNX importer: the TFLite reader is our own).
 constexpr const char* kDebianPackages = "python3 python3-onnx python3-numpy python3-opencv";
 
 const std::vector<OptionSpec> kInfoOptions = {
@@ -45,12 +47,18 @@ const std::vector<OptionSpec> kInfoOptions = {
 };
 
 const std::vector<OptionSpec> kImportOptions = {
-    {"--onnx", "FILE", "the float network (ONNX): input N x 4 x H x W (normalised R, G, B, depth), output the class "
-                       "logits", true},
-    {"--calibration", "URI", "frame source whose frames set the int8 quantisation ranges (see edgefusion run --help)",
-     true},
+    {"--onnx", "FILE", "a float network in ONNX: input N x 4 x H x W (normalised R, G, B, depth), output the class "
+                       "logits"},
+    {"--tflite", "FILE", "a TFLite network (float activations; int8 or float weights), e.g. DeepLabv3-MobileNetV2: "
+                         "input 1 x H x W x 3 or 4, output the class logits"},
+    {"--calibration", "URI", "frame source(s) whose frames set the int8 quantisation ranges (see edgefusion run "
+                             "--help); several sources separated by '|' share the frames", true},
     {"--out", "MODEL", "the .efm file to write", true},
     {"--frames", "N", "calibration frames to use; default the importer's"},
+    {"--input", "WxH", "TFLite: the network input size (each side 8k+1, e.g. 257x193); default the file's"},
+    {"--class-map", "JSON", "TFLite: source class -> target class (e.g. ADE20K -> NYUv2 13) stored in the model: "
+                            "the runtime sums the probabilities of the source classes of each target"},
+    {"--labels", "FILE", "TFLite: source class names, lines 'index<TAB>name'"},
 };
 
 void print_model_help() {
@@ -61,8 +69,10 @@ void print_model_help() {
       "                                        variant of each layer\n"
       "  import --onnx FILE --calibration URI --out MODEL [--frames N]\n"
       "                                        quantise an ONNX network to an int8 .efm (runs %s -m %s)\n"
-      "The shipped model is models/edgefusion-seg.efm; $EDGEFUSION_MODEL overrides it for segment.\n",
-      kPython, kImportModule);
+      "  import --tflite FILE --calibration URI --out MODEL [--input WxH] [--class-map JSON] [--labels FILE]\n"
+      "                                        the same for a TFLite network (runs %s -m %s)\n"
+      "The shipped models are in models/; $EDGEFUSION_MODEL overrides the one segment and run use.\n",
+      kPython, kOnnxModule, kPython, kTfliteModule);
 }
 
 std::string shape_text(const nn::TensorDesc& t) {
@@ -87,6 +97,9 @@ std::string geometry_text(const nn::LayerDesc& l) {
       break;
     case LayerType::kUpsample:
       std::snprintf(buf, sizeof buf, "x%u %s", l.factor, l.mode == nn::UpsampleMode::kBilinear ? "bilinear" : "nearest");
+      break;
+    case LayerType::kResizeBilinear:
+      std::snprintf(buf, sizeof buf, "align-corners");
       break;
     default:
       break;
@@ -144,6 +157,17 @@ int model_info(int argc, char** argv) {
   for (const auto& n : d.class_names) names += (names.empty() ? "" : " ") + n;
   std::printf("%-20s %zu\n", "classes", d.class_names.size());
   std::printf("%-20s %s\n", "class_names", names.c_str());
+  if (!d.class_map.empty()) {
+    // Target class <- its source classes, e.g. "chair <- chair armchair swivel".
+    std::printf("%-20s %zu target classes, each the sum of its source classes' probabilities\n", "class_map",
+                d.target_class_names.size());
+    for (std::size_t t = 0; t < d.target_class_names.size(); ++t) {
+      std::string from;
+      for (std::size_t c = 0; c < d.class_map.size(); ++c)
+        if (d.class_map[c] == t) from += " " + d.class_names[c];
+      std::printf("  %-18s <-%s\n", d.target_class_names[t].c_str(), from.empty() ? " (none)" : from.c_str());
+    }
+  }
   std::printf("%-20s %zu\n", "layers", d.layers.size());
   std::printf("%-20s %d\n", "conv_layers", stats.conv_layers);
   std::printf("%-20s %llu\n", "parameters", static_cast<unsigned long long>(stats.parameters));
@@ -206,13 +230,17 @@ std::vector<std::string> python_env(const std::string& dir) {
 
 int model_import(int argc, char** argv) {
   constexpr const char* kCmd = "edgefusion model import";
+  constexpr const char* kUsage =
+      "edgefusion model import (--onnx FILE | --tflite FILE [--input WxH] [--class-map JSON] [--labels FILE]) "
+      "--calibration URI --out MODEL [--frames N]";
   if (wants_help(argc, argv, 3)) {
-    std::printf("%s", format_help("edgefusion model import --onnx FILE --calibration URI --out MODEL [--frames N]",
-                                  std::string("Quantises a float ONNX segmentation network to an int8 .efm model with "
-                                              "the frames of a\nsource as calibration data. Runs ") +
-                                      kPython + " -m " + kImportModule + " with PYTHONPATH = the models/\n"
-                                      "folder of this build (" + models_dir() + "; $EDGEFUSION_MODELS_DIR overrides it)"
-                                      " and returns its exit code.\nDebian packages: " + kDebianPackages + ".",
+    std::printf("%s", format_help(kUsage,
+                                  std::string("Quantises a float segmentation network (ONNX or TFLite) to an int8 .efm "
+                                              "model with the frames\nof a source as calibration data. Runs ") +
+                                      kPython + " -m " + kOnnxModule + " or " + kTfliteModule +
+                                      " with PYTHONPATH = the\nmodels/ folder of this build (" + models_dir() +
+                                      "; $EDGEFUSION_MODELS_DIR overrides it) and returns its exit code.\n"
+                                      "Debian packages: " + kDebianPackages + ".",
                                   kImportOptions).c_str());
     return 0;
   }
@@ -220,15 +248,25 @@ int model_import(int argc, char** argv) {
   if (!args.ok()) return report_error(kCmd, args.error(), 2);
   auto frames = args->get_int("--frames", -1, 1, INT64_MAX);
   if (!frames.ok()) return report_error(kCmd, frames.error(), 2);
+  const bool onnx = args->has("--onnx"), tfl = args->has("--tflite");
+  if (onnx == tfl)
+    return report_error(kCmd, error(ErrorCode::kInvalidArgument,
+                                    std::string(onnx ? "--onnx and --tflite both given" : "no network given") +
+                                        ": give exactly one of --onnx FILE and --tflite FILE"), 2);
+  for (const char* opt : {"--input", "--class-map", "--labels"})
+    if (onnx && args->has(opt))
+      return report_error(kCmd, error(ErrorCode::kInvalidArgument, std::string(opt) + " applies to --tflite only"), 2);
+  const char* module_name = onnx ? kOnnxModule : kTfliteModule;
+  const char* module_file = onnx ? "import_onnx.py" : "import_tflite.py";
 
   // What is missing is said before anything runs, with what to install: a Python traceback is a
   // poor error message.
   const std::string dir = models_dir();
-  const fs::path module = fs::path(dir) / "edgefusion_models" / "import_onnx.py";
+  const fs::path module = fs::path(dir) / "edgefusion_models" / module_file;
   std::error_code ec;
   if (!fs::is_regular_file(module, ec))
     return report_error(kCmd, error(ErrorCode::kNotFound,
-                                    std::string("the Python module ") + kImportModule + " is missing: " +
+                                    std::string("the Python module ") + module_name + " is missing: " +
                                         module.string() + " does not exist (models folder " + dir +
                                         (models_dir_overridden() ? ", from $EDGEFUSION_MODELS_DIR" : "") +
                                         "). It ships in the models/ folder of the EdgeFusion sources; point "
@@ -240,18 +278,19 @@ int model_import(int argc, char** argv) {
                                                           kDebianPackages + ")"), 1);
   const std::vector<std::string> env = python_env(dir);
   // find_spec locates a module without importing it: fast, and no side effects. Exit status bit i
-  // is set when module i is missing.
-  static const char* const kModules[][2] = {{"onnx", "python3-onnx"}, {"numpy", "python3-numpy"},
-                                            {"cv2", "python3-opencv"}};
+  // is set when module i is missing (the ONNX package only for the ONNX importer).
+  static const char* const kModules[][2] = {{"numpy", "python3-numpy"}, {"cv2", "python3-opencv"},
+                                            {"onnx", "python3-onnx"}};
+  const int checked = onnx ? 3 : 2;
   auto missing_bits = spawn_and_wait(
       {kPython, "-c",
-       "import importlib.util as u\nm=0\nfor i,n in enumerate(('onnx','numpy','cv2')):\n"
-       "    m|=(u.find_spec(n) is None)<<i\nraise SystemExit(m)"},
+       std::string("import importlib.util as u\nm=0\nfor i,n in enumerate(('numpy','cv2','onnx')[:") +
+           std::to_string(checked) + "]):\n    m|=(u.find_spec(n) is None)<<i\nraise SystemExit(m)"},
       env);
   if (!missing_bits.ok()) return report_error(kCmd, missing_bits.error(), 1);
   if (*missing_bits != 0) {
     std::string mods, pkgs;
-    for (int i = 0; i < 3; ++i)
+    for (int i = 0; i < checked; ++i)
       if (*missing_bits & (1 << i)) {
         mods += std::string(mods.empty() ? "" : ", ") + kModules[i][0];
         pkgs += std::string(pkgs.empty() ? "" : " ") + kModules[i][1];
@@ -268,16 +307,21 @@ int model_import(int argc, char** argv) {
   if (n <= 0) return report_error(kCmd, error(ErrorCode::kIoError, std::string("readlink /proc/self/exe: ") +
                                                                        std::strerror(errno)), 1);
   exe[n] = '\0';
-  std::vector<std::string> cmd = {kPython,          "-m",    kImportModule,   "--onnx", args->get("--onnx"),
-                                  "--calibration", args->get("--calibration"), "--out", args->get("--out"),
-                                  "--edgefusion",  exe};
+  std::vector<std::string> cmd = {kPython, "-m", module_name, onnx ? "--onnx" : "--tflite",
+                                  args->get(onnx ? "--onnx" : "--tflite"), "--calibration", args->get("--calibration"),
+                                  "--out", args->get("--out"), "--edgefusion", exe};
   if (args->has("--frames")) {
     cmd.push_back("--frames");
     cmd.push_back(std::to_string(*frames));
   }
+  for (const char* opt : {"--input", "--class-map", "--labels"})
+    if (args->has(opt)) {
+      cmd.push_back(opt);
+      cmd.push_back(args->get(opt));
+    }
   auto code = spawn_and_wait(cmd, env);
   if (!code.ok()) return report_error(kCmd, code.error(), 1);
-  if (*code != 0) std::fprintf(stderr, "%s: %s -m %s exited with status %d\n", kCmd, kPython, kImportModule, *code);
+  if (*code != 0) std::fprintf(stderr, "%s: %s -m %s exited with status %d\n", kCmd, kPython, module_name, *code);
   return *code;
 }
 

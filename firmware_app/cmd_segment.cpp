@@ -132,9 +132,9 @@ int cmd_segment(int argc, char** argv) {
                                     model_path + ": the network has " + std::to_string(seg.num_classes()) +
                                         " classes; segment writes class ids 0..13 and needs at most 14"), 1);
   for (int k = 0; k < seg.num_classes(); ++k)
-    if (desc.class_names[std::size_t(k)] != class_name(k)) {
+    if (seg.class_name(k) != class_name(k)) {
       std::fprintf(stderr, "%s: note: class %d of %s is '%s', not '%s': ids are written as the network numbers them\n",
-                   kCmd, k, model_path.c_str(), desc.class_names[std::size_t(k)].c_str(),
+                   kCmd, k, model_path.c_str(), seg.class_name(k).c_str(),
                    std::string(class_name(k)).c_str());
       break;
     }

@@ -55,6 +55,9 @@ class Node:
     factor: int = 1                           # upsample
     mode: str = "nearest"                     # upsample: "nearest" or "bilinear"
     size: Tuple[int, int] = (0, 0)            # resize_bilinear: output (H, W)
+    # Convolutions imported from int8 weights (TFLite): the per-output-channel scale of that grid,
+    # so that the quantiser keeps the file's integers instead of rounding them onto a new grid.
+    weight_scale: Optional[np.ndarray] = None
     bn_scale: Optional[np.ndarray] = None     # batchnorm (transient)
     bn_shift: Optional[np.ndarray] = None
 

@@ -67,6 +67,8 @@ def fold_batchnorm(g: Graph):
         s = bn.bn_scale.astype(np.float64)
         shape = (-1,) + (1,) * (prod.weight.ndim - 1)
         prod.weight = (prod.weight.astype(np.float64) * s.reshape(shape)).astype(np.float32)
+        if prod.weight_scale is not None:  # w = q * scale: folding scales the grid, the integers stay
+            prod.weight_scale = (prod.weight_scale.astype(np.float64) * np.abs(s)).astype(np.float32)
         prod.bias = (prod.bias.astype(np.float64) * s + bn.bn_shift.astype(np.float64)).astype(np.float32)
         _replace_output(g, prod, bn)
 

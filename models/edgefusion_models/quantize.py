@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from .graph import CONV_KINDS, INF, Graph, forward, infer_shapes, normalise
+from .graph import CONV_KINDS, INF, Graph, Node, forward, infer_shapes, normalise, run_node
 from .netconst import DEPTH_MAX_M
 from .qmodel import (Activation, DType, LayerType, MAX_ABS_BIAS, FLT_MIN, ModelError, QLayer, QModel, QTensor,
                      UpsampleMode, f32, validate)
@@ -174,8 +174,11 @@ def activation_label(act_range):
     return Activation.CLAMP
 
 
-def quantize_conv(weight, bias, s_in, s_out):
-    """(weight_scales float32 [Cout], bias int32 [Cout], weights int8 flat) of one convolution."""
+def quantize_conv(weight, bias, s_in, s_out, grid=None):
+    """(weight_scales float32 [Cout], bias int32 [Cout], weights int8 flat) of one convolution.
+    grid: per output channel, the scale of an int8 grid the weights already lie on (imported int8
+    weights); used as the channel's scale when every weight is within [-127, 127] steps of it, so the
+    imported integers are kept exactly (another grid would round them a second time)."""
     cout = weight.shape[0]
     w = weight.reshape(cout, -1).astype(np.float64)
     b = bias.astype(np.float64)
@@ -187,6 +190,8 @@ def quantize_conv(weight, bias, s_in, s_out):
         amax = float(np.abs(w[o]).max())
         ws = np.float32(max(amax / 127.0 if amax > 0 else 1.0 / 127.0,
                             4.0 * FLT_MIN * s_out / s_in))  # the multiplier stays a normal float32
+        if grid is not None and grid[o] > 0 and amax / float(grid[o]) <= 127.0 + 1e-3:
+            ws = np.float32(max(float(grid[o]), 4.0 * FLT_MIN * s_out / s_in))
         bq = np.rint(b[o] / (s_in * float(ws)))
         if abs(bq) > MAX_ABS_BIAS:  # the bias dominates: a coarser weight scale keeps it within 2^30 units
             ws = np.float32(abs(b[o]) / (s_in * (MAX_ABS_BIAS - 1)))
@@ -231,7 +236,8 @@ def quantize_graph(g: Graph, ranges, depth_max=DEFAULT_DEPTH_MAX_M, concat_polic
             l.stride_h, l.stride_w = n.stride
             l.dilation_h, l.dilation_w = n.dilation
             l.pad_top, l.pad_left, l.pad_bottom, l.pad_right = n.pads
-            l.weight_scales, l.bias, l.weights = quantize_conv(n.weight, n.bias, t_in.scale, out.scale)
+            l.weight_scales, l.bias, l.weights = quantize_conv(n.weight, n.bias, t_in.scale, out.scale,
+                                                               n.weight_scale)
         elif n.kind in ("max_pool", "avg_pool"):
             l.type = LayerType.MAX_POOL if n.kind == "max_pool" else LayerType.AVG_POOL
             l.kernel_h, l.kernel_w = n.kernel
@@ -260,7 +266,63 @@ def quantize_graph(g: Graph, ranges, depth_max=DEFAULT_DEPTH_MAX_M, concat_polic
     return m
 
 
-def quantize(g: Graph, raw_frames, depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share", name=None):
-    """Calibrates on raw frames (N x H x W x C: R, G, B 0..255, depth metres) and quantises."""
+def _fake_quant(y, scale, zp):
+    """y rounded onto the int8 grid of (scale, zero point) and back to real units (3.0, 3.1)."""
+    s = float(scale)
+    return ((np.clip(np.rint(y / s) + zp, -128, 127) - zp) * s).astype(np.float32)
+
+
+def correct_biases(g: Graph, raw_frames, ranges, depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share"):
+    """Empirical bias correction (Nagel et al., "Data-Free Quantization Through Weight Equalization and
+    Bias Correction", ICCV 2019, section 4.2, with data): quantisation errors of the weights and of
+    the activations shift each convolution's output on average, and a network deep enough adds those
+    shifts up. Layer by layer in order, the calibration frames go through the float graph and
+    through a simulation of the int8 one (weights as quantize_conv makes them, every tensor rounded
+    onto its int8 grid); each convolution's bias loses the mean difference of its pre-activation
+    outputs per channel, before the next layer is simulated. Changes g's biases in place."""
+    in_range = input_range(g, depth_max)
+    params = activation_params(g, ranges, in_range, concat_policy)
+    x = np.clip(normalise(g, raw_frames), np.float32(in_range[0]), np.float32(in_range[1]))
+    fl = {g.input: x}
+    qu = {g.input: _fake_quant(x, *params[g.input])}
+    last_use = {}
+    for i, n in enumerate(g.nodes):
+        for t in n.inputs:
+            last_use[t] = i
+    for i, n in enumerate(g.nodes):
+        f_in = [fl[t] for t in n.inputs]
+        q_in = [qu[t] for t in n.inputs]
+        if n.kind in CONV_KINDS:
+            s_in = params[n.inputs[0]][0]
+            s_out = params[n.output][0]
+            scales, _, qw = quantize_conv(n.weight, n.bias, s_in, s_out, n.weight_scale)
+            wq = (qw.reshape(n.weight.shape[0], -1).astype(np.float64) * scales.astype(np.float64)[:, None])
+            linear = Node(**{**n.__dict__, "act_range": (-INF, INF)})
+            f_pre = run_node(linear, f_in)
+            linear.weight = wq.reshape(n.weight.shape).astype(np.float32)
+            q_pre = run_node(linear, q_in)
+            shift = (q_pre.astype(np.float64) - f_pre).reshape(-1, f_pre.shape[-1]).mean(axis=0)
+            n.bias = (n.bias.astype(np.float64) - shift).astype(np.float32)
+            linear.bias = n.bias
+            q_pre = (q_pre - shift.astype(np.float32)).astype(np.float32)
+            lo, hi = n.act_range
+            f_out = np.clip(f_pre, np.float32(lo), np.float32(hi)) if (lo > -INF or hi < INF) else f_pre
+            q_out = np.clip(q_pre, np.float32(lo), np.float32(hi)) if (lo > -INF or hi < INF) else q_pre
+        else:
+            f_out = run_node(n, f_in)
+            q_out = run_node(n, q_in)
+        fl[n.output] = f_out
+        qu[n.output] = q_out if n.kind == "softmax" else _fake_quant(q_out, *params[n.output])
+        for t in set(n.inputs):
+            if last_use.get(t) == i and t != g.output:
+                del fl[t], qu[t]
+
+
+def quantize(g: Graph, raw_frames, depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share", name=None,
+             bias_correction=False):
+    """Calibrates on raw frames (N x H x W x C: R, G, B 0..255, depth metres) and quantises.
+    bias_correction: correct_biases() on the same frames first (the TFLite importer's default)."""
     ranges = calibrate(g, raw_frames, input_range(g, depth_max))
+    if bias_correction:
+        correct_biases(g, raw_frames, ranges, depth_max, concat_policy)
     return quantize_graph(g, ranges, depth_max, concat_policy, name)

@@ -12,7 +12,15 @@ namespace ef::semantic {
 
 namespace {
 
-constexpr int kInputChannels = 4;  // R, G, B (0..255), depth (metres)
+constexpr int kRgbChannels = 3;   // R, G, B (0..255)
+constexpr int kRgbdChannels = 4;  // R, G, B (0..255), depth (metres)
+
+// Classes of the probabilities the segmenter gives: the model's target classes when it carries a
+// class map (its output channels are summed into them), else its output channels.
+int output_classes(const nn::Model& model) {
+  const nn::ModelDesc& d = model.desc;
+  return d.class_map.empty() ? int(d.tensors[d.output_tensor].c) : int(d.target_class_names.size());
+}
 
 // OpenCV's INTER_AREA shrink by integer factors (fx, fy) (resizeAreaFast, what resample_frame runs
 // for 640x480 -> 160x120) keeps a table of fx * fy + 3 * dst_width ints in a cv::AutoBuffer whose
@@ -47,17 +55,22 @@ Result<std::unique_ptr<Segmenter>> Segmenter::prepare(std::unique_ptr<Segmenter>
   // on top: an RGB-D input and class ids that fit a uint8_t label image.
   const nn::TensorDesc& in = d.tensors[d.input_tensor];
   const nn::TensorDesc& out = d.tensors[d.output_tensor];
-  if (in.c != kInputChannels)
+  if (in.c != kRgbChannels && in.c != kRgbdChannels)
     return error(ErrorCode::kUnsupported, file + ": segmenter: the input has " + std::to_string(in.c) +
-                                              " channels; expected 4 (R, G, B, depth)");
+                                              " channels; expected 3 (R, G, B) or 4 (R, G, B, depth)");
   if (out.dtype != nn::DType::kFloat32 || out.c < 1 || out.c > 256)
     return error(ErrorCode::kUnsupported, file + ": segmenter: the output must be float32 probabilities over 1..256 "
                                                  "classes (it has " + std::to_string(out.c) + ")");
   s->in_w_ = int(in.w);
   s->in_h_ = int(in.h);
+  s->in_c_ = int(in.c);
   s->out_w_ = int(out.w);
   s->out_h_ = int(out.h);
-  s->num_classes_ = int(out.c);
+  s->net_classes_ = int(out.c);
+  s->num_classes_ = output_classes(*s->model_);
+  if (s->num_classes_ > 256)
+    return error(ErrorCode::kUnsupported, file + ": segmenter: " + std::to_string(s->num_classes_) +
+                                              " target classes; class ids must fit 8 bits");
 
   nn::ExecutorOptions eo;
   eo.pool = options.pool;
@@ -70,10 +83,12 @@ Result<std::unique_ptr<Segmenter>> Segmenter::prepare(std::unique_ptr<Segmenter>
   s->depth_only_.depth.allocate(s->in_w_, s->in_h_);
   s->depth_only_.name.reserve(Frame::kMaxFrameName);
   s->input_.assign(s->executor_->input_floats(), 0.0f);
-  s->probs_.assign(s->executor_->output_floats(), 0.0f);
+  const std::size_t out_px = std::size_t(s->out_w_) * std::size_t(s->out_h_);
+  if (!d.class_map.empty()) s->net_probs_.assign(s->executor_->output_floats(), 0.0f);
+  s->probs_.assign(out_px * std::size_t(s->num_classes_), 0.0f);
   s->labels_.allocate(s->out_w_, s->out_h_);
-  if (s->input_.size() != std::size_t(s->in_w_) * std::size_t(s->in_h_) * kInputChannels ||
-      s->probs_.size() != std::size_t(s->out_w_) * std::size_t(s->out_h_) * std::size_t(s->num_classes_))
+  if (s->input_.size() != std::size_t(s->in_w_) * std::size_t(s->in_h_) * std::size_t(s->in_c_) ||
+      s->executor_->output_floats() != out_px * std::size_t(s->net_classes_))
     return error(ErrorCode::kInternal, file + ": segmenter: executor buffer sizes disagree with the model's tensors");
   // The memory plan sizes this object by buffer_bytes_for(): the two must never disagree.
   if (s->buffer_bytes() != buffer_bytes_for(*s->model_))
@@ -88,14 +103,16 @@ std::size_t Segmenter::buffer_bytes_for(const nn::Model& model) {
   const nn::TensorDesc& in = d.tensors[d.input_tensor];
   const nn::TensorDesc& out = d.tensors[d.output_tensor];
   const std::size_t in_px = std::size_t(in.w) * std::size_t(in.h), out_px = std::size_t(out.w) * std::size_t(out.h);
+  const std::size_t net_probs = d.class_map.empty() ? 0 : out_px * std::size_t(out.c);
   return Frame::bytes_for(int(in.w), int(in.h), /*with_labels=*/false) + in_px * sizeof(float) +
-         in_px * kInputChannels * sizeof(float) + out_px * std::size_t(out.c) * sizeof(float) + out_px;
+         in_px * std::size_t(in.c) * sizeof(float) + (net_probs + out_px * std::size_t(output_classes(model))) * sizeof(float) +
+         out_px;
 }
 
 std::size_t Segmenter::buffer_bytes() const {
   const std::size_t in_px = std::size_t(in_w_) * std::size_t(in_h_);
-  return in_px * (sizeof(Rgb8) + 2 * sizeof(float)) + input_.size() * sizeof(float) + probs_.size() * sizeof(float) +
-         labels_.size();
+  return in_px * (sizeof(Rgb8) + 2 * sizeof(float)) + input_.size() * sizeof(float) +
+         (net_probs_.size() + probs_.size()) * sizeof(float) + labels_.size();
 }
 
 bool Segmenter::resample_in_strips(const Frame& frame) {
@@ -120,6 +137,7 @@ bool Segmenter::resample_in_strips(const Frame& frame) {
 
 void Segmenter::build_input(const Image<Rgb8>& color, const Image<float>& depth) {
   float* dst = input_.data();
+  const bool with_depth = in_c_ == kRgbdChannels;
   for (int y = 0; y < in_h_; ++y) {
     const Rgb8* c = color.data() + std::size_t(y) * std::size_t(in_w_);
     const float* z = depth.data() + std::size_t(y) * std::size_t(in_w_);
@@ -127,9 +145,23 @@ void Segmenter::build_input(const Image<Rgb8>& color, const Image<float>& depth)
       dst[0] = float(c[x].r);
       dst[1] = float(c[x].g);
       dst[2] = float(c[x].b);
-      dst[3] = z[x];
-      dst += kInputChannels;
+      if (with_depth) dst[3] = z[x];
+      dst += in_c_;
     }
+  }
+}
+
+void Segmenter::map_classes() {
+  // p(target) = sum of p(source) over the source channels mapped to it (the model's class map), in
+  // channel order, so the sum is the same on every machine.
+  const std::vector<uint8_t>& map = model_->desc.class_map;
+  const std::size_t k_in = std::size_t(net_classes_), k_out = std::size_t(num_classes_);
+  const std::size_t n = std::size_t(out_w_) * std::size_t(out_h_);
+  const float* src = net_probs_.data();
+  float* dst = probs_.data();
+  for (std::size_t i = 0; i < n; ++i, src += k_in, dst += k_out) {
+    std::fill(dst, dst + k_out, 0.0f);
+    for (std::size_t c = 0; c < k_in; ++c) dst[map[c]] += src[c];
   }
 }
 
@@ -198,7 +230,12 @@ Status Segmenter::segment(const Frame& frame, ImageView<uint8_t> upsampled) {
   }
   build_input(*color, *depth);
   timings_.input_ms = lap_ms(t);
-  EF_RETURN_IF_ERROR(executor_->run(input_.data(), input_.size(), probs_.data(), probs_.size()));
+  if (net_probs_.empty()) {
+    EF_RETURN_IF_ERROR(executor_->run(input_.data(), input_.size(), probs_.data(), probs_.size()));
+  } else {
+    EF_RETURN_IF_ERROR(executor_->run(input_.data(), input_.size(), net_probs_.data(), net_probs_.size()));
+    map_classes();
+  }
   timings_.forward_ms = lap_ms(t);
   argmax();
   timings_.argmax_ms = lap_ms(t);

@@ -1,6 +1,8 @@
-// Runs the shipped segmentation network (or any .efm with an R, G, B, depth input) on one frame:
+// Runs a segmentation network (.efm with an R, G, B, depth input, or R, G, B only) on one frame:
 // resample to the network's input size, build the float input, run the int8 executor, and turn the
-// class probabilities into class-id images.
+// class probabilities into class-id images. A model that carries a class map (e.g. ADE20K's 150
+// classes -> the NYUv2 13) gives the probabilities of its target classes: each the sum of its source
+// classes' probabilities.
 //
 // Why the resampling is io's resample_frame: the training data is exported with
 // `edgefusion convert --resolution`, which calls the same function, so the network sees at run time
@@ -67,7 +69,7 @@ class Segmenter {
  public:
   // Loads and validates `model_path` (.efm) and prepares everything. Errors: the loader's (the file,
   // section and fault; kNotFound for a missing file), and kUnsupported for a model this class cannot
-  // feed (input not 4 channels, more than 256 classes, output not float32 HxWxK).
+  // feed (input not 3 or 4 channels, more than 256 classes, output not float32 HxWxK).
   static Result<std::unique_ptr<Segmenter>> create(const std::string& model_path, const SegmenterOptions& options = {});
   // The same with an already loaded model, borrowed (it must outlive the segmenter).
   static Result<std::unique_ptr<Segmenter>> create(const nn::Model& model, const SegmenterOptions& options = {});
@@ -88,7 +90,8 @@ class Segmenter {
   // the pixel-centre convention of resample_frame. Allocates nothing.
   void upsample_labels(ImageView<uint8_t> out) const;
 
-  // Results of the last segment().
+  // Results of the last segment(): probabilities over num_classes() (the target classes of a model
+  // with a class map).
   ProbabilityView probabilities() const {
     return {probs_.data(), out_h_, out_w_, num_classes_};
   }
@@ -96,8 +99,8 @@ class Segmenter {
   ImageView<const uint8_t> labels() const { return labels_.view(); }
   const SegmentTimings& last_timings() const { return timings_; }
 
-  // The float input the network saw last (input_height x input_width x 4: R, G, B in 0..255,
-  // depth in metres). For tests.
+  // The float input the network saw last (input_height x input_width x 3 or 4: R, G, B in 0..255,
+  // and depth in metres for an RGB-D network). For tests.
   const std::vector<float>& input() const { return input_; }
 
   int input_width() const { return in_w_; }
@@ -105,6 +108,12 @@ class Segmenter {
   int output_width() const { return out_w_; }
   int output_height() const { return out_h_; }
   int num_classes() const { return num_classes_; }
+  // Name of class k of probabilities(): the model's target class names with a class map, else its
+  // output channel names.
+  const std::string& class_name(int k) const {
+    const nn::ModelDesc& d = model_->desc;
+    return d.class_map.empty() ? d.class_names[std::size_t(k)] : d.target_class_names[std::size_t(k)];
+  }
 
   const nn::Model& model() const { return *model_; }
   const nn::Executor& executor() const { return *executor_; }
@@ -112,8 +121,9 @@ class Segmenter {
   // labels); see docs/architecture.md, memory budget.
   std::size_t buffer_bytes() const;
   // What create() allocates besides the executor for `model` (validated): the resampled frame
-  // (colour + depth) and a depth-only frame at the input size, the float input (4 channels), the
-  // probabilities and the class ids at the output size. The memory plan's "segmenter buffers".
+  // (colour + depth) and a depth-only frame at the input size, the float input (3 or 4 channels),
+  // the probabilities (the network's and, with a class map, the target classes') and the class ids
+  // at the output size. The memory plan's "segmenter buffers".
   static std::size_t buffer_bytes_for(const nn::Model& model);
 
  private:
@@ -122,15 +132,19 @@ class Segmenter {
   bool resample_in_strips(const Frame& frame);
   void build_input(const Image<Rgb8>& color, const Image<float>& depth);
   void argmax();
+  void map_classes();
 
   std::unique_ptr<nn::Model> owned_model_;  // set by create(path)
   const nn::Model* model_ = nullptr;
   std::unique_ptr<nn::Executor> executor_;
-  int in_w_ = 0, in_h_ = 0, out_w_ = 0, out_h_ = 0, num_classes_ = 0;
+  int in_w_ = 0, in_h_ = 0, in_c_ = 0, out_w_ = 0, out_h_ = 0;
+  int net_classes_ = 0;  // the network's output channels
+  int num_classes_ = 0;  // classes of probs_: the class map's targets, else net_classes_
   Frame resampled_;                 // the frame at the input size (colour + depth, no labels)
   Frame depth_only_;                // depth at the input size without a colour image (see segment())
-  std::vector<float> input_;        // in_h x in_w x 4
-  std::vector<float> probs_;        // out_h x out_w x classes
+  std::vector<float> input_;        // in_h x in_w x in_c (R, G, B[, depth])
+  std::vector<float> net_probs_;    // out_h x out_w x net_classes_ (only with a class map)
+  std::vector<float> probs_;        // out_h x out_w x num_classes_
   Image<uint8_t> labels_;           // out_w x out_h class ids
   SegmentTimings timings_;
 };

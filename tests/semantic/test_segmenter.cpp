@@ -2,6 +2,7 @@
 // argmax, nearest-neighbour upsampling) and the sizes of each.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -78,11 +79,59 @@ TEST(Segmenter, MissingAndUnsuitableModelsAreErrors) {
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
   EXPECT_NE(missing.error().message.find("/nonexistent/edgefusion-seg.efm"), std::string::npos);
 
-  const nn::Model rgb_only = load(test::tiny_seg_net(24, 32, 14, 5, /*in_channels=*/3));
-  auto s = Segmenter::create(rgb_only);
+  const nn::Model two = load(test::tiny_seg_net(24, 32, 14, 5, /*in_channels=*/2));
+  auto s = Segmenter::create(two);
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.error().code, ErrorCode::kUnsupported);
-  EXPECT_NE(s.error().message.find("4 (R, G, B, depth)"), std::string::npos) << s.error().message;
+  EXPECT_NE(s.error().message.find("3 (R, G, B) or 4 (R, G, B, depth)"), std::string::npos) << s.error().message;
+}
+
+// Issue 28: a network trained on photographs takes R, G, B only.
+TEST(Segmenter, RgbOnlyNetworkReadsTheColourAlone) {
+  const nn::Model model = load(test::tiny_seg_net(24, 32, 14, 5, /*in_channels=*/3));
+  auto seg = make_segmenter(model);
+  ASSERT_TRUE(seg);
+  const Frame f = synthetic_frame(32, 24);
+  ASSERT_TRUE(seg->segment(f).ok());
+  ASSERT_EQ(seg->input().size(), std::size_t(32 * 24 * 3));
+  for (int k : {0, 17, 32 * 24 - 1}) {
+    const Rgb8 c = f.color.data()[k];
+    EXPECT_EQ(seg->input()[std::size_t(3 * k)], float(c.r));
+    EXPECT_EQ(seg->input()[std::size_t(3 * k + 1)], float(c.g));
+    EXPECT_EQ(seg->input()[std::size_t(3 * k + 2)], float(c.b));
+  }
+}
+
+// Issue 28: with a class map in the model (e.g. ADE20K's 151 outputs -> the NYUv2 13), the
+// probabilities are the target classes', each the sum of its source classes'.
+TEST(Segmenter, ClassMapSumsTheSourceProbabilities) {
+  nn::ModelDesc plain = test::tiny_seg_net(24, 32, 6);
+  nn::ModelDesc mapped = plain;
+  mapped.class_map = {0, 2, 1, 2, 2, 0};
+  mapped.target_class_names = {"unknown", "b", "c"};
+  const nn::Model a = load(plain), b = load(mapped);
+  auto net = make_segmenter(a);
+  auto seg = make_segmenter(b);
+  ASSERT_TRUE(net && seg);
+  EXPECT_EQ(seg->num_classes(), 3);
+  EXPECT_EQ(seg->class_name(2), "c");
+  const Frame f = synthetic_frame(64, 48);
+  ASSERT_TRUE(net->segment(f).ok());
+  ASSERT_TRUE(seg->segment(f).ok());
+  const ProbabilityView p = net->probabilities(), q = seg->probabilities();
+  ASSERT_EQ(q.classes, 3);
+  ASSERT_EQ(q.width, p.width);
+  for (int y = 0; y < p.height; ++y)
+    for (int x = 0; x < p.width; ++x) {
+      const float* s = p.pixel(x, y);
+      const float* t = q.pixel(x, y);
+      EXPECT_EQ(t[0], s[0] + s[5]);
+      EXPECT_EQ(t[1], s[2]);
+      EXPECT_EQ(t[2], (s[1] + s[3]) + s[4]);
+      EXPECT_NEAR(t[0] + t[1] + t[2], 1.0f, 1e-5f);
+      const int want = int(std::max_element(t, t + 3) - t);
+      EXPECT_EQ(seg->labels()(x, y), want);
+    }
 }
 
 TEST(Segmenter, FramesWithoutColourOrDepthAreRejected) {
