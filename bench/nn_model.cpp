@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
     else return usage();
   }
   const bool is_default = model_path.empty();
-  if (is_default) model_path = ef::pipeline::default_model_path();
+  if (is_default) model_path = ef::pipeline::default_model_path("synthetic:");  // EdgeSegNet, the headline's figure
   if (ef::Status s = ef::pipeline::check_model_file(model_path, is_default); !s.ok()) {
     std::fprintf(stderr, "bench_nn_model: %s\n", ef::to_string(s.error()).c_str());
     return 1;

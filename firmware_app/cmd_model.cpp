@@ -26,7 +26,6 @@ extern char** environ;
 namespace ef::app {
 
 using pipeline::check_model_file;
-using pipeline::default_model_path;
 using pipeline::models_dir;
 using pipeline::models_dir_overridden;
 
@@ -59,6 +58,8 @@ const std::vector<OptionSpec> kImportOptions = {
     {"--class-map", "JSON", "TFLite: source class -> target class (e.g. ADE20K -> NYUv2 13) stored in the model: "
                             "the runtime sums the probabilities of the source classes of each target"},
     {"--labels", "FILE", "TFLite: source class names, lines 'index<TAB>name'"},
+    {"--golden-dir", "DIR", "also write golden files (the first calibration frame's int8 tensors and output) for the "
+                            "C++ bit-exactness test"},
 };
 
 void print_model_help() {
@@ -232,7 +233,7 @@ int model_import(int argc, char** argv) {
   constexpr const char* kCmd = "edgefusion model import";
   constexpr const char* kUsage =
       "edgefusion model import (--onnx FILE | --tflite FILE [--input WxH] [--class-map JSON] [--labels FILE]) "
-      "--calibration URI --out MODEL [--frames N]";
+      "--calibration URI --out MODEL [--frames N] [--golden-dir DIR]";
   if (wants_help(argc, argv, 3)) {
     std::printf("%s", format_help(kUsage,
                                   std::string("Quantises a float segmentation network (ONNX or TFLite) to an int8 .efm "
@@ -314,7 +315,7 @@ int model_import(int argc, char** argv) {
     cmd.push_back("--frames");
     cmd.push_back(std::to_string(*frames));
   }
-  for (const char* opt : {"--input", "--class-map", "--labels"})
+  for (const char* opt : {"--input", "--class-map", "--labels", "--golden-dir"})
     if (args->has(opt)) {
       cmd.push_back(opt);
       cmd.push_back(args->get(opt));

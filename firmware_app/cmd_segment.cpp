@@ -35,7 +35,9 @@ namespace {
 namespace fs = std::filesystem;
 
 const std::vector<OptionSpec> kSegmentOptions = {
-    {"--model", "MODEL", "network (.efm); default $EDGEFUSION_MODEL, else the shipped models/edgefusion-seg.efm"},
+    {"--model", "MODEL", "network (.efm); default $EDGEFUSION_MODEL, else the shipped one for the source: "
+                         "models/deeplabv3-mnv2-nyu13.efm for recordings and cameras, models/edgefusion-seg.efm "
+                         "for the synthetic rooms"},
     {"--source", "URI", "frame source (see below)", true},
     {"--out", "DIR", "output folder, created if missing", true},
     {"--frames", "N", "read at most N frames of the source; default all"},
@@ -113,7 +115,7 @@ int cmd_segment(int argc, char** argv) {
   const bool want_probabilities = args->has("--probabilities");
 
   const bool default_model = !args->has("--model");
-  const std::string model_path = default_model ? default_model_path() : args->get("--model");
+  const std::string model_path = default_model ? default_model_path(args->get("--source")) : args->get("--model");
   if (Status s = check_model_file(model_path, default_model); !s.ok()) return report_error(kCmd, s.error(), 1);
 
   // Threads first: the segmenter borrows the pool.

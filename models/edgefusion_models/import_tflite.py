@@ -138,7 +138,7 @@ def main(argv=None):
     export_graph(g, raw, args.out, args.golden_dir, 0,
                  f"{g.name} imported from TFLite at {w}x{h}, calibrated on {len(raw)} frames; "
                  "golden input = calibration frame 0",
-                 log=(lambda *a: None) if args.quiet else print)
+                 log=(lambda *a: None) if args.quiet else print, bias_correction=True)
     return 0
 
 

@@ -10,10 +10,12 @@ from .quantize import DEFAULT_DEPTH_MAX_M, quantize
 
 
 def export_graph(g, raw, out_path, golden_dir=None, golden_index=0, description="", name=None,
-                 depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share", log=print):
-    """Quantises g on raw frames (N x H x W x 4), writes out_path and, when golden_dir is given,
-    the golden files of frame golden_index. Returns the QModel."""
-    qm = quantize(g, raw, depth_max=depth_max, concat_policy=concat_policy, name=name)
+                 depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share", log=print, bias_correction=False):
+    """Quantises g on raw frames (N x H x W x C), writes out_path and, when golden_dir is given,
+    the golden files of frame golden_index. Returns the QModel. bias_correction: see
+    quantize.correct_biases (changes g's biases)."""
+    qm = quantize(g, raw, depth_max=depth_max, concat_policy=concat_policy, name=name,
+                  bias_correction=bias_correction)
     os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
     data = efm.write(out_path, qm)
     log(f"{out_path}: {len(qm.layers)} layers, {len(qm.tensors)} tensors, {len(data)} bytes "

@@ -120,7 +120,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
 
   size_t cnn_result = 0;  // one frame's CNN probabilities and class ids (CnnResult)
   if (labels) {
-    const std::string model_path = RunSemantics::model_path(config.labels);
+    const std::string model_path = RunSemantics::model_path(config.labels, config.run.source);
     EF_RETURN_IF_ERROR(check_model_file(model_path, config.labels.model.empty()));
     EF_ASSIGN_OR_RETURN(nn::Model model, nn::load_model(model_path));
     const nn::ModelDesc& d = model.desc;
@@ -138,10 +138,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
     add("label fusion", semantic::LabelFusion::bytes_for(RunSemantics::fusion_options(sem, w, h, int(out.w), int(out.h))),
         "16 bytes per CNN pixel + a pair per index cell at the largest scale (" +
             std::to_string(slam::kMaxIndexScale) + "x)");
-    cnn_result = CnnResult::bytes_for(int(out.w), int(out.h), int(out.c), w, h);
+    const int classes = semantic::Segmenter::classes_for(model);  // after the model's class map
+    cnn_result = CnnResult::bytes_for(int(out.w), int(out.h), classes, w, h);
     add("cnn jobs", size_t(CnnWorker::kJobs) * CnnJob::bytes_for(w, h, cnn_result),
         std::to_string(CnnWorker::kJobs) + " x (working frame " + size_text(w, h) + " without labels + CNN result " +
-            size_text(int(out.w), int(out.h)) + " x " + std::to_string(out.c) + " floats + class ids)");
+            size_text(int(out.w), int(out.h)) + " x " + std::to_string(classes) + " floats + class ids)");
     add("late label fusion", RunSemantics::late_fusion_bytes_for(w, h, slam.prediction),
         "an index map renderer for CNN results that finish after their frame, " +
             std::to_string(RunSemantics::kPoseHistory) + " poses");

@@ -14,9 +14,19 @@ std::string models_dir();
 // True when $EDGEFUSION_MODELS_DIR chose models_dir() (for messages).
 bool models_dir_overridden();
 
-// The model used when --model is not given: $EDGEFUSION_MODEL when set, else
-// <EF_MODELS_DIR>/edgefusion-seg.efm (the shipped model).
-std::string default_model_path();
+// The shipped models (in EF_MODELS_DIR): EdgeSegNet, trained on the synthetic rooms (RGB-D,
+// 160x120), and DeepLabv3-MobileNetV2 trained on ADE20K photographs, imported at 257x193 with its
+// classes mapped to the NYUv2 13 (RGB; models/MODEL_CARD-deeplab.md).
+inline constexpr const char* kSyntheticModelFile = "edgefusion-seg.efm";
+inline constexpr const char* kRealModelFile = "deeplabv3-mnv2-nyu13.efm";
+
+// True for the built-in rendered rooms (synthetic: URIs); recordings and cameras are real.
+bool is_synthetic_source(const std::string& source_uri);
+
+// The model used when --model is not given: $EDGEFUSION_MODEL when set, else the shipped model for
+// the source: EdgeSegNet for the synthetic rooms it was trained on, the real-photograph network for
+// recordings and cameras (docs/results.md, issue 28, has the measurements behind the choice).
+std::string default_model_path(const std::string& source_uri);
 
 // Ok when `path` is an existing file. Otherwise a kNotFound error that names the path, says whether
 // it was the default, and says how to get a model (train and export it, or import an ONNX network).

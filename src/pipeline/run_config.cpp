@@ -33,7 +33,9 @@ const opt::Table<LabelOptions>& LabelOptions::table() {
       {"enabled", "labels", "--no-labels", &LabelOptions::enabled, "", opt::any(),
        "CNN segmentation and Bayesian label fusion; false = geometry only"},
       {"model", "model", "--model", &LabelOptions::model, "a .efm file", opt::any(),
-       "segmentation model; none = the shipped models/edgefusion-seg.efm ($EDGEFUSION_MODEL overrides it)"},
+       "segmentation model; none = the shipped one for the source: models/deeplabv3-mnv2-nyu13.efm (real "
+       "photographs) for recordings and cameras, models/edgefusion-seg.efm for the synthetic rooms "
+       "($EDGEFUSION_MODEL overrides both)"},
       {"out", "labels_out", "--labels-out", &LabelOptions::out, "a folder", opt::any(),
        "folder for the map's labels rendered into every out_every-th frame as it arrives (class-id PNGs)"},
       {"out_every", "labels_out_every", "--labels-out-every", &LabelOptions::out_every, "frames",

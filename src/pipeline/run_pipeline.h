@@ -106,8 +106,10 @@ class RunPipeline {
   const RunSemantics* semantics() const { return semantics_.get(); }
   // Frames dropped so far: a live camera's overload (ring full) plus the frames it reported corrupt.
   uint64_t frames_dropped() const { return front_->dropped_overload() + front_->corrupt_dropped(); }
-  // Bytes of one prepared slot (working frame, pyramids, CNN result), for the memory line.
+  // Bytes of one prepared slot (working frame, pyramids), for the memory line.
   std::size_t slot_bytes() const { return slot_bytes_; }
+  // Bytes of the CNN's jobs (0 without labels).
+  std::size_t cnn_job_bytes() const { return cnn_ != nullptr ? cnn_->bytes() : 0; }
 
  private:
   RunPipeline(const RunConfig& config, FrameSource& source, StageStats& stats)

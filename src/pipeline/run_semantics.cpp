@@ -23,11 +23,12 @@ SemanticsOptions semantics_options(const RunConfig& config) {
   o.dense_crf = crf_options_for_run(config);
   o.pool_capacity = config.mapping.pool.capacity;
   o.prediction = config.mapping.prediction;
+  o.source = config.run.source;
   return o;
 }
 
-std::string RunSemantics::model_path(const LabelOptions& labels) {
-  return labels.model.empty() ? default_model_path() : labels.model;
+std::string RunSemantics::model_path(const LabelOptions& labels, const std::string& source_uri) {
+  return labels.model.empty() ? default_model_path(source_uri) : labels.model;
 }
 
 std::size_t RunSemantics::rendering_bytes_for(int working_width, int working_height) {
@@ -66,7 +67,7 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOption
   std::unique_ptr<RunSemantics> s(new RunSemantics());
   s->options_ = options;
   const bool default_model = options.labels.model.empty();
-  s->model_path_ = model_path(options.labels);
+  s->model_path_ = model_path(options.labels, options.source);
   EF_RETURN_IF_ERROR(check_model_file(s->model_path_, default_model));
   auto seg = semantic::Segmenter::create(s->model_path_);
   if (!seg.ok()) return seg.take_error();

@@ -56,6 +56,7 @@ struct SemanticsOptions {
   semantic::DenseCrfOptions dense_crf;  // sized for the pool (crf_options_for_run)
   int64_t pool_capacity = 0;            // surfels: map.ply's class columns
   slam::PredictionOptions prediction;   // the mapping's: late results' index maps are rendered alike
+  std::string source;                   // the run's source URI: which shipped model is the default
 };
 SemanticsOptions semantics_options(const RunConfig& config);
 
@@ -91,8 +92,9 @@ class RunSemantics {
   // creates the label folders. Errors name the model file or the folder.
   static Result<std::unique_ptr<RunSemantics>> create(const SemanticsOptions& options, const Intrinsics& working,
                                                       StageStats& stats);
-  // The model a run of `labels` loads: labels.model, or the shipped one when it is empty.
-  static std::string model_path(const LabelOptions& labels);
+  // The model a run of `labels` on `source_uri` loads: labels.model, or the shipped one for that
+  // source when it is empty (model_paths.h).
+  static std::string model_path(const LabelOptions& labels, const std::string& source_uri);
   // Bytes create() allocates besides the segmenter: the rendered image at the working size and
   // map.ply's class columns (5 bytes per surfel of capacity).
   static std::size_t rendering_bytes_for(int working_width, int working_height);
@@ -141,6 +143,9 @@ class RunSemantics {
   ImageView<const float> visible_depth(ImageView<const float> depth) const { return fusion_->visible_depth(depth); }
   const LabelOptions& labels() const { return options_.labels; }
   const semantic::LabelFusion& fusion() const { return *fusion_; }
+  const semantic::Segmenter& segmenter() const { return *segmenter_; }
+  // Bytes of what late results need (late_fusion_bytes_for).
+  std::size_t late_fusion_bytes() const { return label_view_->bytes() + poses_.size() * sizeof(PoseRecord); }
 
  private:
   RunSemantics() = default;

@@ -15,12 +15,6 @@ namespace {
 constexpr int kRgbChannels = 3;   // R, G, B (0..255)
 constexpr int kRgbdChannels = 4;  // R, G, B (0..255), depth (metres)
 
-// Classes of the probabilities the segmenter gives: the model's target classes when it carries a
-// class map (its output channels are summed into them), else its output channels.
-int output_classes(const nn::Model& model) {
-  const nn::ModelDesc& d = model.desc;
-  return d.class_map.empty() ? int(d.tensors[d.output_tensor].c) : int(d.target_class_names.size());
-}
 
 // OpenCV's INTER_AREA shrink by integer factors (fx, fy) (resizeAreaFast, what resample_frame runs
 // for 640x480 -> 160x120) keeps a table of fx * fy + 3 * dst_width ints in a cv::AutoBuffer whose
@@ -31,6 +25,11 @@ int output_classes(const nn::Model& model) {
 constexpr int kOpenCvAreaTableInts = 1024 / int(sizeof(int)) + 8;
 
 }  // namespace
+
+int Segmenter::classes_for(const nn::Model& model) {
+  const nn::ModelDesc& d = model.desc;
+  return d.class_map.empty() ? int(d.tensors[d.output_tensor].c) : int(d.target_class_names.size());
+}
 
 Result<std::unique_ptr<Segmenter>> Segmenter::create(const std::string& model_path, const SegmenterOptions& options) {
   EF_ASSIGN_OR_RETURN(nn::Model model, nn::load_model(model_path));
@@ -67,7 +66,7 @@ Result<std::unique_ptr<Segmenter>> Segmenter::prepare(std::unique_ptr<Segmenter>
   s->out_w_ = int(out.w);
   s->out_h_ = int(out.h);
   s->net_classes_ = int(out.c);
-  s->num_classes_ = output_classes(*s->model_);
+  s->num_classes_ = Segmenter::classes_for(*s->model_);
   if (s->num_classes_ > 256)
     return error(ErrorCode::kUnsupported, file + ": segmenter: " + std::to_string(s->num_classes_) +
                                               " target classes; class ids must fit 8 bits");
@@ -105,7 +104,7 @@ std::size_t Segmenter::buffer_bytes_for(const nn::Model& model) {
   const std::size_t in_px = std::size_t(in.w) * std::size_t(in.h), out_px = std::size_t(out.w) * std::size_t(out.h);
   const std::size_t net_probs = d.class_map.empty() ? 0 : out_px * std::size_t(out.c);
   return Frame::bytes_for(int(in.w), int(in.h), /*with_labels=*/false) + in_px * sizeof(float) +
-         in_px * std::size_t(in.c) * sizeof(float) + (net_probs + out_px * std::size_t(output_classes(model))) * sizeof(float) +
+         in_px * std::size_t(in.c) * sizeof(float) + (net_probs + out_px * std::size_t(Segmenter::classes_for(model))) * sizeof(float) +
          out_px;
 }
 

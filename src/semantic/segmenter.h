@@ -125,6 +125,9 @@ class Segmenter {
   // the probabilities (the network's and, with a class map, the target classes') and the class ids
   // at the output size. The memory plan's "segmenter buffers".
   static std::size_t buffer_bytes_for(const nn::Model& model);
+  // Classes of the probabilities a segmenter of `model` gives: its class map's target classes, or
+  // its output channels when it has none (num_classes()).
+  static int classes_for(const nn::Model& model);
 
  private:
   Segmenter() = default;

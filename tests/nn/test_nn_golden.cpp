@@ -215,5 +215,14 @@ TEST(NnGolden, ShippedModel) {
   check_golden(model, dir);
 }
 
+// Issue 28: the real-camera network (DeepLabv3-MobileNetV2 imported from TFLite by
+// models/import_deeplab.sh): dilated depthwise convolutions, 960-channel 1x1s, a global pool and its
+// broadcast, align-corners resizes, concatenations, RGB input and a class map, bit-exact on every ISA.
+TEST(NnGolden, ShippedRealCameraModel) {
+  const fs::path model = fs::path(EF_SOURCE_DIR) / "models" / "deeplabv3-mnv2-nyu13.efm";
+  const fs::path dir = fs::path(EF_SOURCE_DIR) / "models" / "golden-deeplab";
+  check_golden(model, dir);
+}
+
 }  // namespace
 }  // namespace ef::nn

@@ -113,7 +113,7 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   ASSERT_TRUE(fusion.ok());
   EXPECT_EQ(plan->bytes_of("surfel fusion scratch"), fusion->bytes());
 
-  auto seg = semantic::Segmenter::create(default_model_path());
+  auto seg = semantic::Segmenter::create(default_model_path(c.run.source));
   ASSERT_TRUE(seg.ok()) << to_string(seg.error());
   EXPECT_EQ(plan->bytes_of("segmenter buffers"), (*seg)->buffer_bytes());
   EXPECT_EQ(plan->bytes_of("cnn arena"), (*seg)->executor().arena_bytes());
@@ -134,6 +134,8 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   EXPECT_EQ(plan->bytes_of("stage statistics"), stats.bytes());
   ASSERT_NE((*pipeline)->semantics(), nullptr);
   EXPECT_EQ(plan->bytes_of("label fusion"), (*pipeline)->semantics()->fusion().bytes());
+  EXPECT_EQ(plan->bytes_of("cnn jobs"), (*pipeline)->cnn_job_bytes());
+  EXPECT_EQ(plan->bytes_of("late label fusion"), (*pipeline)->semantics()->late_fusion_bytes());
 
   auto crf = semantic::DenseCrf::create(crf_options_for_run(c));  // the options `run` creates it with
   ASSERT_TRUE(crf.ok()) << to_string(crf.error());
@@ -151,6 +153,33 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   auto final_pass = FinalLabelBuffers::create(with_final.run, (*source)->info(), *slam, **semantics);
   ASSERT_TRUE(final_pass.ok()) << to_string(final_pass.error());
   EXPECT_EQ(final_plan->bytes_of("final label pass"), final_pass->bytes()) << final_plan->table();
+}
+
+// Issue 28: the real-camera model (RGB, 151 classes mapped to 14 inside the model, its CNN beside
+// the pipeline): every part the plan names is what the run allocates.
+TEST(PlanMemory, RealCameraModelPartsAreWhatTheRunAllocates) {
+  RunConfig c;
+  c.run.source = "synthetic:?frames=3&size=320x240";
+  c.run.progress = false;
+  c.labels.model = std::string(EF_SOURCE_DIR) + "/models/" + kRealModelFile;
+  c.run.out = test::scratch_dir("plan-real-model").string();
+  auto plan = plan_memory(c);
+  ASSERT_TRUE(plan.ok()) << to_string(plan.error());
+  auto source = open_source(c.run.source);
+  ASSERT_TRUE(source.ok());
+  StageStats stats;
+  auto pipeline = RunPipeline::create(c, **source, stats);
+  ASSERT_TRUE(pipeline.ok()) << to_string(pipeline.error());
+  const RunSemantics* sem = (*pipeline)->semantics();
+  ASSERT_NE(sem, nullptr);
+  EXPECT_EQ(sem->segmenter().num_classes(), 14);
+  EXPECT_EQ(sem->segmenter().model().desc.tensors[sem->segmenter().model().desc.output_tensor].c, 151u);
+  EXPECT_EQ(plan->bytes_of("cnn model"), sem->segmenter().model().bytes());
+  EXPECT_EQ(plan->bytes_of("segmenter buffers"), sem->segmenter().buffer_bytes());
+  EXPECT_EQ(plan->bytes_of("cnn arena"), sem->segmenter().executor().arena_bytes());
+  EXPECT_EQ(plan->bytes_of("label fusion"), sem->fusion().bytes());
+  EXPECT_EQ(plan->bytes_of("cnn jobs"), (*pipeline)->cnn_job_bytes()) << plan->table();
+  EXPECT_EQ(plan->bytes_of("late label fusion"), sem->late_fusion_bytes());
 }
 
 TEST(PlanMemory, OverBudgetIsRefusedWithTheNumbers) {
