@@ -10,10 +10,14 @@ The runs, one after the other (never together, so that they do not share the cor
               320x240 (the sum of the medians of its preprocess, track, fuse and predict stages) and
               Open3D's frame-to-frame RGB-D odometry on the same frames (median of the call), both on
               one thread; the ATE of both trajectories against the reference poses.
-  CNN         bench_nn_conv --model models/edgefusion-seg.efm: the shipped network's convolutions, one
-              frame, our kernels against XNNPACK's int8 operators (thread CPU time, one thread);
-              bench_nn_model: the whole forward pass at the best ISA this CPU runs.
-  pipeline    `edgefusion run` with the CNN every 10th frame (the defaults), one and two threads
+  CNN         bench_nn_conv --model M for each shipped network (the real-camera DeepLabv3-MobileNetV2
+              and the synthetic-room EdgeSegNet): its convolutions, one frame, our kernels against
+              XNNPACK's int8 operators (thread CPU time, one thread); bench_nn_model --model M: the
+              whole forward pass at the best ISA this CPU runs.
+  agreement   edgefusion_models.agreement: the real-camera model's int8 labels against the float
+              reference of its TFLite file on every 10th 7-Scenes frame (needs ../shared/models).
+  pipeline    `edgefusion run` with the CNN every 10th frame (the defaults: the real-camera network
+              beside the mapper), one and two threads
               back to back, --reps times (bench/pipeline_hz.py's runs): frames per second over the
               whole run and the peak resident memory (stats.json), medians.
 """
@@ -92,8 +96,8 @@ def slam(args, work):
     }
 
 
-def cnn(args):
-    model = os.path.join(REPO, "models", "edgefusion-seg.efm")
+def cnn(args, model_file):
+    model = os.path.join(REPO, "models", model_file)
     conv = run([os.path.join(args.build, "bench", "bench_nn_conv"), "--model", model, "--reps", "9"])
     m = re.search(r"model convolutions, one frame \((\d+) layers\): XNNPACK ([\d.]+) ms(?:, XNNPACK@avx2 ([\d.]+) ms)?;"
                   r" (?:avx2|neon) path ([\d.]+) ms \(([\d.]+)x\), best path ([\d.]+) ms \(([\d.]+)x\)", conv)
@@ -104,7 +108,7 @@ def cnn(args):
            "avx2_ratio": float(m.group(5)), "best_ms": float(m.group(6)), "best_ratio": float(m.group(7))}
     g = re.search(r"goal >= 1.0x: \S+ path on (\d+) of (\d+) shapes, best path on (\d+) of (\d+) shapes", conv)
     res["shapes"] = (int(g.group(3)), int(g.group(4))) if g else None
-    whole = run([os.path.join(args.build, "bench", "bench_nn_model"), "--reps", "9"])
+    whole = run([os.path.join(args.build, "bench", "bench_nn_model"), "--model", model, "--reps", "9"])
     rows = re.findall(r"^\s+(\w+)\s+([\d.]+)\s+[\d.]+%\s+([\d.]+)\s+([\d.]+)\s", whole, re.M)
     if not rows:
         sys.exit("headline: no ISA rows in bench_nn_model's output:\n" + whole)
@@ -112,6 +116,20 @@ def cnn(args):
     res["forward_isa"], res["forward_ms"], res["mmac"] = best[0], float(best[1]), float(best[2])
     res["scalar_ms"] = float(rows[0][1])
     return res
+
+
+def agreement(args):
+    """The real-camera model's int8 argmax agreement with the float reference of its TFLite file."""
+    tflite = os.path.join(args.shared, "models", "deeplabv3-mnv2-ade20k", "deeplabv3-mnv2-ade20k.tflite")
+    with tempfile.TemporaryDirectory(prefix="edgefusion-agreement-") as tmp:
+        out = os.path.join(tmp, "a.json")
+        env = dict(os.environ, PYTHONPATH=os.path.join(REPO, "models"))
+        subprocess.run(["/usr/bin/python3", "-m", "edgefusion_models.agreement", "--tflite", tflite, "--model",
+                        os.path.join(REPO, "models", "deeplabv3-mnv2-nyu13.efm"), "--source", f"7scenes:{args.data}",
+                        "--every", "10", "--edgefusion", args.edgefusion, "--json", out], check=True, env=env,
+                       stdout=subprocess.DEVNULL)
+        with open(out) as f:
+            return json.load(f)
 
 
 def pipeline(args, work):
@@ -141,6 +159,8 @@ def main():
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--data", default=os.path.join(os.environ.get("EF_SHARED_DATA", os.path.join(REPO, "..", "shared", "data")),
                                                    "7scenes-redkitchen"))
+    ap.add_argument("--shared", default=os.path.abspath(os.path.join(REPO, "..", "shared")),
+                    help="the shared folder (the TFLite file of the real-camera network)")
     ap.add_argument("--no-readme", action="store_true")
     ap.add_argument("--setup-seconds", type=float, default=0)
     args = ap.parse_args()
@@ -153,7 +173,9 @@ def main():
                             text=True).stdout.strip() or "unknown"
     with tempfile.TemporaryDirectory(prefix="edgefusion-headline-") as work:
         s = slam(args, work)
-        c = cnn(args)
+        c = cnn(args, "edgefusion-seg.efm")
+        r = cnn(args, "deeplabv3-mnv2-nyu13.efm")
+        a = agreement(args)
         p = pipeline(args, work)
     load_after = os.getloadavg()[0]
     minutes = (time.monotonic() - t0 + args.setup_seconds) / 60
@@ -167,7 +189,18 @@ def main():
         ("Open3D time / SLAM time", f"{s['ratio']:.1f}x", kitchen, "same run"),
         ("Trajectory error (ATE RMSE): EdgeFusion / Open3D", f"{s['ours_ate_cm']:.2f} / {s['o3d_ate_cm']:.2f} cm",
          kitchen, "same run, `edgefusion eval ate`"),
-        (f"CNN convolutions of the shipped network ({c['layers']} layers), one frame: ours / XNNPACK, best ISA",
+        (f"Real-camera CNN (DeepLabv3-MobileNetV2, 257x193, {r['mmac'] / 1000:.2f} G multiply-adds): whole forward "
+         f"pass, {r['forward_isa']}, one thread", f"{r['forward_ms']:.1f} ms", "any input (timing)",
+         "bench_nn_model --model"),
+        (f"Its convolutions ({r['layers']} layers), one frame: ours / XNNPACK, best ISA",
+         f"{r['best_ms']:.2f} / {r['xnn_ms']:.2f} ms ({r['best_ratio']:.2f}x)", "any input (timing)",
+         "bench_nn_conv --model"),
+        ("Its int8 labels against the float network of the TFLite file (argmax agreement, 14 classes)",
+         f"{100 * a['agreement']:.2f}% of pixels", f"real: every 10th of the {args.frames} 7-Scenes frames",
+         "edgefusion_models.agreement"),
+        (f"Synthetic-room CNN (EdgeSegNet, 160x120, {c['mmac']:.1f} M multiply-adds): forward pass, {c['forward_isa']}",
+         f"{c['forward_ms']:.2f} ms", "any input (timing)", "bench_nn_model"),
+        (f"Its convolutions ({c['layers']} layers), one frame: ours / XNNPACK, best ISA",
          f"{c['best_ms']:.2f} / {c['xnn_ms']:.2f} ms ({c['best_ratio']:.2f}x)", "any input (timing)",
          "bench_nn_conv --model"),
     ]
@@ -176,9 +209,7 @@ def main():
                      f"{c['avx2_ms']:.2f} / {c['xnn_avx2_ms']:.2f} ms ({c['avx2_ratio']:.2f}x)", "any input (timing)",
                      "same run"))
     rows += [
-        (f"Whole CNN forward pass ({c['mmac']:.1f} M multiply-adds), {c['forward_isa']}", f"{c['forward_ms']:.2f} ms",
-         "any input (timing)", "bench_nn_model"),
-        ("End-to-end rate of `edgefusion run`, CNN every 10th frame: 1 thread / 2 threads",
+        ("End-to-end rate of `edgefusion run`, real-camera CNN beside the mapper, every 10th frame: 1 thread / 2 threads",
          f"{p['hz1']:.1f} / {p['hz2']:.1f} Hz", kitchen, f"bench/pipeline_hz.py's runs, median of {args.reps}"),
         ("Peak resident memory of that run, default 1,000,000-surfel pool, 2 threads", f"{p['rss2']:.0f} MB", kitchen,
          "same runs, stats.json peak_rss_bytes"),
@@ -205,10 +236,13 @@ in this one run; rerun the script when a change can move one of them.
   {s['surfels']:,} surfels at the end. Open3D's time is its odometry call alone (the frames are read
   and shrunk outside it); ours is the sum of the four stage medians (decoding and resampling not
   included).
-- CNN (`bench_nn_conv --model models/edgefusion-seg.efm --reps 9`, `bench_nn_model --reps 9`): thread CPU
-  time, one thread, median of 9. Our kernels are faster than XNNPACK's on
-  {c['shapes'][0] if c['shapes'] else '?'} of {c['shapes'][1] if c['shapes'] else '?'} convolution shapes
-  on the best path. The forward pass's scalar reference: {c['scalar_ms']:.1f} ms.
+- CNNs (`bench_nn_conv --model M --reps 9`, `bench_nn_model --model M --reps 9`, M each shipped
+  model): thread CPU time, one thread, median of 9. Our kernels are faster than XNNPACK's on
+  {r['shapes'][0] if r['shapes'] else '?'} of {r['shapes'][1] if r['shapes'] else '?'} convolution shapes of the
+  real-camera network and {c['shapes'][0] if c['shapes'] else '?'} of {c['shapes'][1] if c['shapes'] else '?'}
+  of EdgeSegNet on the best path. The forward passes' scalar references: {r['scalar_ms']:.1f} ms and
+  {c['scalar_ms']:.1f} ms. Agreement: median frame {100 * a['median_frame_agreement']:.2f}%, worst
+  {100 * a['worst_frame_agreement']:.2f}% ({a['frames']} frames).
 - Pipeline: two threads / one thread, side by side per repetition, median {p['ratio']:.2f}x; two-thread
   rates {", ".join(f"{v:.1f}" for v in p['all_hz2'])} Hz; peak RSS with one thread {p['rss1']:.0f} MB;
   {p['lost']} frames lost.

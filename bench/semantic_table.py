@@ -19,8 +19,8 @@ the room's loop, so the end of each sequence revisits its start). --rooms takes 
 instead (synthetic:ROOM, e.g. living_room bedroom office kitchen library: fixed layouts that training,
 which only drew random rooms, never used); --trajectory robot the planar robot path instead of the
 hand-held loop, --trajectory inspect the inspecting scan (the loop's path, the gaze turning to the
-near wall and back). --model runs another segmentation model (.efm) in place of the shipped one, for
-the CNN row and both runs (the work folder's outputs are then that model's: use a folder per model).
+near wall and back). --model runs another segmentation model (.efm) in place of the shipped synthetic-room
+one (EdgeSegNet, models/edgefusion-seg.efm), for the CNN row and both runs (the work folder's outputs are then that model's: use a folder per model).
 --camera kinect renders the sequences through the synthetic source's Kinect-like colour camera
 (camera=kinect: motion blur, vignetting, auto-exposure and white balance, shot noise), directly at
 320x240 (size=320x240: five renders per frame at 640x480 would take four times as long); use it with
@@ -79,7 +79,9 @@ def main():
     ap.add_argument("--sequences", nargs="*", default=[],
                     help="existing TUM folders with labels/ to use instead of rendering seeds")
     ap.add_argument("--model", default="",
-                    help="segmentation model (.efm) for the CNN and both runs; default the shipped one")
+                    help="segmentation model (.efm) for the CNN and both runs; default the shipped synthetic-room "
+                         "model models/edgefusion-seg.efm (the sequences are converted to tum: folders, which "
+                         "`run` would otherwise treat as real recordings and give the real-camera model)")
     ap.add_argument("--camera", choices=["ideal", "kinect"], default="ideal",
                     help="colour camera of the rendered sequences (the synthetic source's camera=)")
     ap.add_argument("--layout", choices=["walls", "island"], default="walls",
@@ -88,7 +90,8 @@ def main():
     args = ap.parse_args()
     ef = args.edgefusion
     run_config = ["--config", args.run_config] if args.run_config else []
-    model = ["--model", args.model] if args.model else []
+    model = ["--model", args.model or os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                                                   "models", "edgefusion-seg.efm")]
     for s in args.seeds:
         if s in HELD_OUT_FORBIDDEN:
             sys.exit(f"semantic_table: seed {s} was used in training, validation or the model's test set")

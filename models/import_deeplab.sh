@@ -18,6 +18,9 @@ bash scripts/install-deps.sh models
 cmake -S . -B build/models -G Ninja -DCMAKE_BUILD_TYPE=Release -DEF_BUILD_TESTS=OFF -DEF_BUILD_BENCH=OFF >/dev/null
 cmake --build build/models --target edgefusion
 start=$(date +%s)
+# One BLAS thread: sums in one order, so the calibration's float results (and the file) do not depend
+# on how many cores the machine has.
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1
 build/models/firmware_app/edgefusion model import --tflite "$src/deeplabv3-mnv2-ade20k.tflite" \
   --input 257x193 --class-map "$src/ade20k_to_nyu13.json" --labels "$src/ade20k-labels.txt" \
   --calibration "7scenes:$shared/data/7scenes-redkitchen|synthetic:random?seed=9001&frames=100&size=640x480&camera=kinect" \
