@@ -2,9 +2,13 @@
 # (scripts/install-deps.sh cross). Libraries come from /usr/lib/aarch64-linux-gnu; headers from
 # /usr/include (shared by all architectures) and /usr/include/aarch64-linux-gnu.
 #
-# Programs (tests, gtest discovery) run through qemu-aarch64 with NO -L: the arm64 dynamic loader and
-# libraries are installed by multiarch at their normal paths, and -L /usr/aarch64-linux-gnu would mix
-# the cross-toolchain libc with the multiarch one (different versions; threaded programs hang).
+# Programs (tests, gtest discovery) run through qemu-aarch64 -L /: the arm64 dynamic loader and
+# libraries are installed by multiarch at their normal paths. -L /usr/aarch64-linux-gnu (or
+# QEMU_LD_PREFIX set to it, as cross-compiling guides suggest) would take the cross toolchain's ld.so
+# (Debian glibc 2.36-8) but the multiarch libc.so.6 (2.36-9+deb12u*): two builds of glibc whose
+# private _rtld_global differs, so the first pthread_create spins for ever walking the thread stack
+# cache (every program that starts a thread hangs; the others run). The explicit -L / overrides any
+# QEMU_LD_PREFIX in the environment.
 # The emulated CPU comes from QEMU_CPU in the environment (cortex-a53: no dot product; max: has it).
 set(CMAKE_SYSTEM_NAME Linux)
 set(CMAKE_SYSTEM_PROCESSOR aarch64)
@@ -25,4 +29,4 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE ONLY)
 set(ENV{PKG_CONFIG_LIBDIR} /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig)
 
 find_program(EF_QEMU_AARCH64 qemu-aarch64 REQUIRED)
-set(CMAKE_CROSSCOMPILING_EMULATOR "${EF_QEMU_AARCH64}")
+set(CMAKE_CROSSCOMPILING_EMULATOR "${EF_QEMU_AARCH64};-L;/")
