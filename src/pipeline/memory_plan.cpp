@@ -131,7 +131,7 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
     add("cnn arena", std::max<size_t>(arena.total_bytes, Arena::kMaxAlign),
         "activations, liveness-planned (nn/planner.h), " + std::to_string(d.layers.size()) + " layers");
     add("cnn packed weights", nn::Executor::packed_bytes_for(model), "convolution weights in this CPU's kernel layout");
-    add("segmenter buffers", semantic::Segmenter::buffer_bytes_for(model),
+    add("segmenter buffers", semantic::Segmenter::buffer_bytes_for(model, w, h),
         "input " + size_text(int(in.w), int(in.h)) + ", output " + size_text(int(out.w), int(out.h)) + " x " +
             std::to_string(out.c) + " classes");
     const SemanticsOptions sem = semantics_options(config);

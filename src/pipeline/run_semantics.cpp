@@ -69,7 +69,10 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOption
   const bool default_model = options.labels.model.empty();
   s->model_path_ = model_path(options.labels, options.source);
   EF_RETURN_IF_ERROR(check_model_file(s->model_path_, default_model));
-  auto seg = semantic::Segmenter::create(s->model_path_);
+  semantic::SegmenterOptions seg_options;
+  seg_options.frame_width = working.width;  // the CNN reads working frames: resampled without allocating
+  seg_options.frame_height = working.height;
+  auto seg = semantic::Segmenter::create(s->model_path_, seg_options);
   if (!seg.ok()) return seg.take_error();
   s->segmenter_ = std::move(*seg);
   if (s->segmenter_->num_classes() != semantic::kLabelClasses)

@@ -71,6 +71,12 @@ Result<std::unique_ptr<Segmenter>> Segmenter::prepare(std::unique_ptr<Segmenter>
     return error(ErrorCode::kUnsupported, file + ": segmenter: " + std::to_string(s->num_classes_) +
                                               " target classes; class ids must fit 8 bits");
 
+  if (needs_area_resampler(options.frame_width, options.frame_height, s->in_w_, s->in_h_)) {
+    auto area = AreaResampler::create(options.frame_width, options.frame_height, s->in_w_, s->in_h_);
+    if (!area.ok()) return area.take_error();
+    s->area_.emplace(std::move(*area));
+  }
+
   nn::ExecutorOptions eo;
   eo.pool = options.pool;
   eo.max_isa = options.max_isa;
@@ -90,20 +96,30 @@ Result<std::unique_ptr<Segmenter>> Segmenter::prepare(std::unique_ptr<Segmenter>
       s->executor_->output_floats() != out_px * std::size_t(s->net_classes_))
     return error(ErrorCode::kInternal, file + ": segmenter: executor buffer sizes disagree with the model's tensors");
   // The memory plan sizes this object by buffer_bytes_for(): the two must never disagree.
-  if (s->buffer_bytes() != buffer_bytes_for(*s->model_))
+  const std::size_t planned = buffer_bytes_for(*s->model_, options.frame_width, options.frame_height);
+  if (s->buffer_bytes() != planned)
     return error(ErrorCode::kInternal, file + ": segmenter: allocated " + std::to_string(s->buffer_bytes()) +
-                                           " buffer bytes, buffer_bytes_for() says " +
-                                           std::to_string(buffer_bytes_for(*s->model_)));
+                                           " buffer bytes, buffer_bytes_for() says " + std::to_string(planned));
   return s;
 }
 
-std::size_t Segmenter::buffer_bytes_for(const nn::Model& model) {
+bool Segmenter::needs_area_resampler(int frame_w, int frame_h, int in_w, int in_h) {
+  if (frame_w <= 0 || frame_h <= 0 || (frame_w == in_w && frame_h == in_h)) return false;
+  const bool integer_shrink = frame_w % in_w == 0 && frame_h % in_h == 0 &&
+                              kOpenCvAreaTableInts - (frame_w / in_w) * (frame_h / in_h) >= 3;
+  return !integer_shrink;  // the strips of resample_in_strips() do those without allocating
+}
+
+std::size_t Segmenter::buffer_bytes_for(const nn::Model& model, int frame_width, int frame_height) {
   const nn::ModelDesc& d = model.desc;
   const nn::TensorDesc& in = d.tensors[d.input_tensor];
   const nn::TensorDesc& out = d.tensors[d.output_tensor];
   const std::size_t in_px = std::size_t(in.w) * std::size_t(in.h), out_px = std::size_t(out.w) * std::size_t(out.h);
   const std::size_t net_probs = d.class_map.empty() ? 0 : out_px * std::size_t(out.c);
-  return Frame::bytes_for(int(in.w), int(in.h), /*with_labels=*/false) + in_px * sizeof(float) +
+  const std::size_t area = needs_area_resampler(frame_width, frame_height, int(in.w), int(in.h))
+                               ? AreaResampler::bytes_for(frame_width, frame_height, int(in.w), int(in.h))
+                               : 0;
+  return area + Frame::bytes_for(int(in.w), int(in.h), /*with_labels=*/false) + in_px * sizeof(float) +
          in_px * std::size_t(in.c) * sizeof(float) + (net_probs + out_px * std::size_t(Segmenter::classes_for(model))) * sizeof(float) +
          out_px;
 }
@@ -111,7 +127,7 @@ std::size_t Segmenter::buffer_bytes_for(const nn::Model& model) {
 std::size_t Segmenter::buffer_bytes() const {
   const std::size_t in_px = std::size_t(in_w_) * std::size_t(in_h_);
   return in_px * (sizeof(Rgb8) + 2 * sizeof(float)) + input_.size() * sizeof(float) +
-         (net_probs_.size() + probs_.size()) * sizeof(float) + labels_.size();
+         (net_probs_.size() + probs_.size()) * sizeof(float) + labels_.size() + (area_ ? area_->bytes() : 0);
 }
 
 bool Segmenter::resample_in_strips(const Frame& frame) {
@@ -219,7 +235,11 @@ Status Segmenter::segment(const Frame& frame, ImageView<uint8_t> upsampled) {
   const Image<float>* depth = &frame.depth;
   if (frame.color.width() != in_w_ || frame.color.height() != in_h_) {
     color = &resampled_.color;
-    if (resample_in_strips(frame)) {
+    if (area_ && frame.color.width() == area_->src_width() && frame.color.height() == area_->src_height()) {
+      area_->run(frame.color.view(), resampled_.color.view());
+      resample_frame(frame, depth_only_);  // depth alone: this output frame has no colour image
+      depth = &depth_only_.depth;
+    } else if (resample_in_strips(frame)) {
       depth = &depth_only_.depth;
     } else {
       resample_frame(frame, resampled_);

@@ -12,9 +12,10 @@
 // Memory: everything is allocated by create() (the executor's arena and packed weights, the
 // resampled frame, the float input, the probabilities and the class-id image); segment() and
 // upsample_labels() never touch the heap (tests/semantic/test_segmenter_zero_alloc.cpp) when the frame
-// is an integer multiple of the input size with a factor up to 16 (640x480 or 320x240 to 160x120).
-// Other sizes go through resample_frame as a whole, where OpenCV's resize takes scratch memory from
-// the heap on each call.
+// is an integer multiple of the input size with a factor up to 16 (640x480 or 320x240 to 160x120),
+// or has the size SegmenterOptions::frame_width/height announced (any ratio: area resampling
+// through tables made at creation). Other sizes go through resample_frame as a whole, where
+// OpenCV's resize takes scratch memory from the heap on each call.
 //
 // Ownership: create(path) owns the model it loads; create(model) borrows it (the model must outlive
 // the segmenter). The optional thread pool is borrowed too.
@@ -24,6 +25,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +33,7 @@
 #include "core/image.h"
 #include "core/result.h"
 #include "core/thread_pool.h"
+#include "io/area_resampler.h"
 #include "kernels/variants.h"
 #include "nn/executor.h"
 #include "nn/model_format.h"
@@ -44,6 +47,11 @@ struct SegmenterOptions {
   // Threads that split each convolution by output rows; borrowed, must outlive the segmenter.
   // nullptr (default): the forward pass runs on the calling thread.
   ThreadPool* pool = nullptr;
+  // The size of the frames segment() will get, when known (pixels; 0 = unknown). When it is not an
+  // integer multiple of the network's input (the 320x240 working frame to the real-camera network's
+  // 257x193), the colour is resampled through tables made at creation (io/area_resampler.h)
+  // instead of OpenCV, which allocates on every call at such ratios.
+  int frame_width = 0, frame_height = 0;
 };
 
 // Milliseconds spent in each step of the last segment() call (steady clock).
@@ -124,7 +132,8 @@ class Segmenter {
   // (colour + depth) and a depth-only frame at the input size, the float input (3 or 4 channels),
   // the probabilities (the network's and, with a class map, the target classes') and the class ids
   // at the output size. The memory plan's "segmenter buffers".
-  static std::size_t buffer_bytes_for(const nn::Model& model);
+  // frame_width/height: SegmenterOptions' (the area resampler's tables when that size needs them).
+  static std::size_t buffer_bytes_for(const nn::Model& model, int frame_width = 0, int frame_height = 0);
   // Classes of the probabilities a segmenter of `model` gives: its class map's target classes, or
   // its output channels when it has none (num_classes()).
   static int classes_for(const nn::Model& model);
@@ -133,6 +142,8 @@ class Segmenter {
   Segmenter() = default;
   static Result<std::unique_ptr<Segmenter>> prepare(std::unique_ptr<Segmenter> s, const SegmenterOptions& options);
   bool resample_in_strips(const Frame& frame);
+  // True when frames of frame_w x frame_h (announced) are resampled to in_w x in_h by AreaResampler.
+  static bool needs_area_resampler(int frame_w, int frame_h, int in_w, int in_h);
   void build_input(const Image<Rgb8>& color, const Image<float>& depth);
   void argmax();
   void map_classes();
@@ -145,6 +156,7 @@ class Segmenter {
   int num_classes_ = 0;  // classes of probs_: the class map's targets, else net_classes_
   Frame resampled_;                 // the frame at the input size (colour + depth, no labels)
   Frame depth_only_;                // depth at the input size without a colour image (see segment())
+  std::optional<AreaResampler> area_;  // announced frames at a non-integer ratio
   std::vector<float> input_;        // in_h x in_w x in_c (R, G, B[, depth])
   std::vector<float> net_probs_;    // out_h x out_w x net_classes_ (only with a class map)
   std::vector<float> probs_;        // out_h x out_w x num_classes_

@@ -32,14 +32,19 @@ nn::Model tiny_model(uint32_t h, uint32_t w) {
   return std::move(*model);
 }
 
-// 640x480 frames (an integer shrink to 160x120) and 320x240 ones to a 24x32 input (a non-integer
-// one): both resampling paths, upsampled back to the frame's size.
+// 640x480 frames (an integer shrink to 160x120), 320x240 ones to a 24x32 input (10x: OpenCV in
+// strips) and to a 25x33 one (a non-integer ratio, like the working frame to the real-camera
+// network's 257x193: the area resampler's tables), upsampled back to the frame's size.
 TEST(SegmenterZeroAlloc, SegmentAllocatesNothing) {
   ASSERT_TRUE(test::allocation_counting_enabled());
-  for (auto [fw, fh, mh, mw] : {std::tuple<int, int, uint32_t, uint32_t>{640, 480, 120, 160}, {320, 240, 24, 32}}) {
+  for (auto [fw, fh, mh, mw] :
+       {std::tuple<int, int, uint32_t, uint32_t>{640, 480, 120, 160}, {320, 240, 24, 32}, {320, 240, 25, 33}}) {
     const std::vector<Frame> input = frames(fw, fh, 3);
     const nn::Model model = tiny_model(mh, mw);
-    auto seg = semantic::Segmenter::create(model);
+    semantic::SegmenterOptions o;
+    o.frame_width = fw;  // announced, as RunSemantics does with the working size
+    o.frame_height = fh;
+    auto seg = semantic::Segmenter::create(model, o);
     ASSERT_TRUE(seg.ok()) << to_string(seg.error());
     Image<uint8_t> full(fw, fh), other(100, 70);
     ASSERT_TRUE((*seg)->segment(input[0], full.view()).ok());  // warm-up
