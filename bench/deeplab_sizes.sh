@@ -9,6 +9,7 @@
 #
 #   bash bench/deeplab_sizes.sh [EDGEFUSION] [EVERY]     (defaults build/release/firmware_app/edgefusion, 20)
 #   EF_SIZES="161x121 257x193" ...   the sizes (default 129x97 161x121 193x145 257x193 321x241)
+#   EF_SIZES_WORK=DIR ...   keep the imported models in DIR (default: a temporary folder)
 # Prints a Markdown table. About 5 minutes per size on 2 cores.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -18,8 +19,13 @@ shared="$(realpath "${EF_SHARED:-../shared}")"
 src="$shared/models/deeplabv3-mnv2-ade20k"
 kitchen="$shared/data/7scenes-redkitchen"
 [ -d "$kitchen" ] || { echo "deeplab_sizes: $kitchen not found" >&2; exit 1; }
-work="$(mktemp -d)"
-trap 'rm -rf "$work"' EXIT
+if [ -n "${EF_SIZES_WORK:-}" ]; then  # keep the imported models there
+  work="$EF_SIZES_WORK"
+  mkdir -p "$work"
+else
+  work="$(mktemp -d)"
+  trap 'rm -rf "$work"' EXIT
+fi
 echo "| input | output | multiply-adds | forward, 1 thread (median) | agreement with float (every ${every}th frame) | worst frame |"
 echo "|---|---|---|---|---|---|"
 for size in ${EF_SIZES:-129x97 161x121 193x145 257x193 321x241}; do
