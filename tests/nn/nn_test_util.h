@@ -103,4 +103,21 @@ inline void fix_crc(std::string& bytes) {
   put_u32(bytes, 12, nn::crc32(bytes.data() + nn::kEfmHeaderBytes, bytes.size() - nn::kEfmHeaderBytes));
 }
 
+// Int8 inputs for the layer variant tests: random, all -128, all 127, or alternating extremes.
+enum class Fill { kRandom, kMin, kMax, kAlternate };
+
+inline std::vector<int8_t> make_input(std::size_t n, Fill fill, std::mt19937& rng) {
+  std::vector<int8_t> v(n);
+  std::uniform_int_distribution<int> d(-128, 127);
+  for (std::size_t i = 0; i < n; ++i) {
+    switch (fill) {
+      case Fill::kRandom: v[i] = static_cast<int8_t>(d(rng)); break;
+      case Fill::kMin: v[i] = -128; break;
+      case Fill::kMax: v[i] = 127; break;
+      case Fill::kAlternate: v[i] = static_cast<int8_t>(((i * 7 + i / 5) & 1) ? 127 : -128); break;
+    }
+  }
+  return v;
+}
+
 }  // namespace ef::test

@@ -49,21 +49,8 @@ const std::vector<const SoftmaxVariant*>& softmax_variants() {
   return v;
 }
 
-enum class Fill { kRandom, kMin, kMax, kAlternate };
-
-std::vector<int8_t> make_input(std::size_t n, Fill fill, std::mt19937& rng) {
-  std::vector<int8_t> v(n);
-  std::uniform_int_distribution<int> d(-128, 127);
-  for (std::size_t i = 0; i < n; ++i) {
-    switch (fill) {
-      case Fill::kRandom: v[i] = static_cast<int8_t>(d(rng)); break;
-      case Fill::kMin: v[i] = -128; break;
-      case Fill::kMax: v[i] = 127; break;
-      case Fill::kAlternate: v[i] = static_cast<int8_t>(((i * 7 + i / 5) & 1) ? 127 : -128); break;
-    }
-  }
-  return v;
-}
+using ef::test::Fill;
+using ef::test::make_input;
 
 // -------------------------------------------------------------------------------------------- upsample
 
