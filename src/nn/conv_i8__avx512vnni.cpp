@@ -39,6 +39,7 @@ struct Avx512Tile {
     }
     const __m512i flip = _mm512_set1_epi32(int32_t(0x80808080u));
     const int full = h.cin / 4, tail = h.cin % 4;
+    const GroupLoader& load_group = *j.groups;
     for (int ky = 0; ky < a.kernel_h; ++ky) {
       for (int kx = 0; kx < a.kernel_w; ++kx) {
         const int8_t* p[MR];
@@ -56,10 +57,11 @@ struct Avx512Tile {
         if (tail) {
           __m512i wv[NV];
           for (int v = 0; v < NV; ++v) wv[v] = _mm512_load_si512(w[v] + 64 * full);
+          // Bytes past cin have zero weights: whatever they hold adds nothing.
+          int32_t x[MR];
+          for (int m = 0; m < MR; ++m) x[m] = load_group(p[m] + 4 * full);
           for (int m = 0; m < MR; ++m) {
-            const int32_t x = int32_t(load_tail8(p[m] + 4 * full, tail));
-            // Bytes past cin have zero weights: whatever they hold adds nothing.
-            const __m512i u = _mm512_xor_si512(_mm512_set1_epi32(x), flip);
+            const __m512i u = _mm512_xor_si512(_mm512_set1_epi32(x[m]), flip);
             for (int v = 0; v < NV; ++v) acc[m][v] = _mm512_dpbusd_epi32(acc[m][v], u, wv[v]);
           }
         }

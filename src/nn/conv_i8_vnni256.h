@@ -99,6 +99,7 @@ struct Vnni256Tile {
       for (int m = 0; m < MR; ++m) acc[m][v] = b;
     }
     const int full = h.cin / 4, tail = h.cin % 4;
+    const GroupLoader& load_group = *j.groups;
     for (int ky = 0; ky < a.kernel_h; ++ky) {
       for (int kx = 0; kx < a.kernel_w; ++kx) {
         const int8_t* p[MR];
@@ -110,7 +111,7 @@ struct Vnni256Tile {
         }
         if (tail) {
           // Bytes past cin have zero weights: whatever they hold adds nothing.
-          for (int m = 0; m < MR; ++m) x[m] = int32_t(load_tail8(p[m] + 4 * full, tail));
+          for (int m = 0; m < MR; ++m) x[m] = load_group(p[m] + 4 * full);
           step<NV, MR>(acc, x, w, std::size_t(32) * full);
         }
         for (int v = 0; v < NV; ++v) w[v] += std::size_t(h.k_steps) * 32;

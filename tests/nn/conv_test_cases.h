@@ -232,9 +232,30 @@ inline void conv_cases_extremes(const ConvCheck& check) {
   }
 }
 
+// The convolutions of models/deeplabv3-mnv2-nyu13.efm (issue 28): the 3-channel stride-2 stem on odd
+// sizes (the 257-wide input's 129-pixel output rows included), its 1x1 layers up to 960 channels
+// (151 outputs: a partial last panel), each on rows with a partial last tile, and the 1x1 layer on
+// the global pool's single pixel (every tile then holds one pixel).
+inline void conv_cases_deeplab(const ConvCheck& check) {
+  std::mt19937 rng(808);
+  check(make_layer(Case{13, 17, 3, 32, 3, 3, 2, 1, 1, 1, 1, 1}, rng), 0, -1);
+  check(make_layer(Case{5, 257, 3, 32, 3, 3, 2, 1, 1, 1, 1, 1}, rng), 0, -1);
+  for (auto [cin, cout] : {std::pair{32, 16}, {16, 96}, {24, 144}, {32, 192}, {64, 384}, {96, 576}, {576, 160},
+                           {160, 960}, {960, 160}, {960, 320}, {320, 256}, {512, 256}, {144, 48}, {304, 256},
+                           {256, 151}}) {
+    check(make_layer(Case{2, 7, cin, cout, 1, 1, 1, 1, 0, 0, 0, 0}, rng), 0, -1);
+    if (failed()) return;
+  }
+  for (auto [cin, cout] : {std::pair{320, 256}, {960, 151}, {3, 5}}) {
+    check(make_layer(Case{1, 1, cin, cout, 1, 1, 1, 1, 0, 0, 0, 0}, rng), 0, -1);
+    if (failed()) return;
+  }
+}
+
 inline void for_each_conv_case(const ConvCheck& check) {
   for (auto family : {conv_cases_channel_counts, conv_cases_random_geometry, conv_cases_wide_rows,
-                      conv_cases_whole_window, conv_cases_row_ranges, conv_cases_saturation, conv_cases_extremes}) {
+                      conv_cases_whole_window, conv_cases_row_ranges, conv_cases_saturation, conv_cases_extremes,
+                      conv_cases_deeplab}) {
     family(check);
     if (failed()) return;
   }

@@ -46,6 +46,7 @@ TEST(NnConvVariants, WholeWindowPackingBoundary) { conv_cases_whole_window([](co
 TEST(NnConvVariants, RowRangesWriteOnlyTheirRows) { conv_cases_row_ranges([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
 TEST(NnConvVariants, SaturationActivationRangesAndTies) { conv_cases_saturation([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
 TEST(NnConvVariants, ExtremeInputsAndWeights) { conv_cases_extremes([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
+TEST(NnConvVariants, DeepLabShapes) { conv_cases_deeplab([](const Layer& l, int b, int e) { expect_variants_match(l, b, e); }); }
 
 }  // namespace
 }  // namespace ef::nn

@@ -253,6 +253,27 @@ TEST(NnDwConvVariants, ModelShapes) {
   }
 }
 
+// The depthwise layers of models/deeplabv3-mnv2-nyu13.efm (issue 28) at their own sizes: stride 2 on
+// odd inputs, dilation 2 with padding 2 on 384 and 576 channels, dilation 4 with padding 4 on 960,
+// and 304 channels (the decoder's, not a multiple of 64).
+TEST(NnDwConvVariants, DeepLabShapes) {
+  std::mt19937 rng(1357);
+  struct Geometry { int h, w, c, s, d; };
+  const Geometry cases[] = {{97, 129, 32, 1, 1}, {97, 129, 96, 2, 1},  {49, 65, 144, 2, 1}, {25, 33, 192, 1, 1},
+                            {25, 33, 384, 1, 2}, {25, 33, 576, 1, 2},  {25, 33, 960, 1, 4}, {49, 65, 304, 1, 1},
+                            {9, 11, 960, 1, 4},  {5, 13, 384, 1, 2}};
+  for (const Geometry& g : cases) {
+    DwCase k;
+    k.h = g.h; k.w = g.w; k.c = g.c;
+    k.kh = k.kw = 3; k.sh = k.sw = g.s; k.dh = k.dw = g.d;
+    k.pt = k.pl = k.pb = k.pr = g.d;
+    random_quantisation(k, rng);
+    const DwData d = random_data(k, rng);
+    expect_all_variants_match(k, d, "DeepLab shape");
+    if (HasFatalFailure()) return;
+  }
+}
+
 TEST(NnDwConvVariants, RowRanges) {
   std::mt19937 rng(4242);
   struct Geometry { int h, w, c, k, s, d, pad; };
