@@ -4,7 +4,8 @@
 // XNNPACK on every shape, on the AVX2 path and on the best path.
 //   bench_nn_conv [--reps R] [--min-ms T] [--shape SUBSTR] [--model FILE.efm]
 // Shapes: 3x3 32->32 at 120x160 plus the convolutions of the segmentation model (a provisional list
-// until the model exists; --model takes the convolution layers of a .efm file instead). Per shape:
+// until the model exists; --model takes the distinct convolution shapes of a .efm file instead, each
+// timed once and counted once per layer in the per-frame total). Per shape:
 //   XNNPACK    its qc8 operator (per-channel weight scales, fp32 requantisation: the arithmetic of
 //              nn/requantize.h, so it must give the reference's bytes too), created and set up once,
 //              xnn_run_operator timed with no thread pool. Twice where the CPU has AVX-512 and cpuinfo's
@@ -84,9 +85,17 @@ struct Shape {
   bool depthwise = false;
   bool in_model = false;     // a layer of the segmentation model (counted in the per-frame total)
   bool provisional = false;  // from the planned model; the model issue replaces these
+  int count = 1;             // layers of the model with exactly this shape (--model: timed once)
   int in_h = 0, in_w = 0, in_c = 0, out_c = 0;
   int kernel_h = 1, kernel_w = 1, stride_h = 1, stride_w = 1, dilation_h = 1, dilation_w = 1;
   int pad_top = 0, pad_left = 0, pad_bottom = 0, pad_right = 0;
+
+  bool same_geometry(const Shape& o) const {
+    return depthwise == o.depthwise && in_h == o.in_h && in_w == o.in_w && in_c == o.in_c && out_c == o.out_c &&
+           kernel_h == o.kernel_h && kernel_w == o.kernel_w && stride_h == o.stride_h && stride_w == o.stride_w &&
+           dilation_h == o.dilation_h && dilation_w == o.dilation_w && pad_top == o.pad_top &&
+           pad_left == o.pad_left && pad_bottom == o.pad_bottom && pad_right == o.pad_right;
+  }
 
   // Output size, as the .efm loader and XNNPACK compute it.
   int out_h() const { return (in_h + pad_top + pad_bottom - dilation_h * (kernel_h - 1) - 1) / stride_h + 1; }
@@ -135,7 +144,9 @@ std::vector<Shape> default_shapes() {
   return s;
 }
 
-// The convolution layers of a .efm model (weights are still random: speed does not depend on them).
+// The distinct convolution shapes of a .efm model (weights are still random: speed does not depend on
+// them): layers of the same geometry are timed once, named "L24,28,32,36 ..." and counted that many
+// times in the per-frame total.
 bool model_shapes(const std::string& path, std::vector<Shape>* out) {
   using ef::nn::LayerType;
   ef::Result<ef::nn::Model> model = ef::nn::load_model(path);
@@ -164,15 +175,23 @@ bool model_shapes(const std::string& path, std::vector<Shape>* out) {
       s.kernel_h = s.kernel_w = s.stride_h = s.stride_w = s.dilation_h = s.dilation_w = 1;
       s.pad_top = s.pad_left = s.pad_bottom = s.pad_right = 0;
     }
-    char name[96];
-    std::snprintf(name, sizeof name, "L%zu %s %dx%d s%d d%d %d->%d", i, ef::nn::layer_type_name(l.type),
-                  s.kernel_h, s.kernel_w, s.stride_h, s.dilation_h, s.in_c, s.out_c);
-    s.name = name;
     if (s.out_h() != int(o.h) || s.out_w() != int(o.w)) {
       std::fprintf(stderr, "bench_nn_conv: %s: layer %zu: output %ux%u, expected %dx%d from its padding; skipped\n",
                    path.c_str(), i, o.h, o.w, s.out_h(), s.out_w());
       continue;
     }
+    const char* kind = s.depthwise ? "dw" : l.type == LayerType::kPointwiseConv2d ? "pw" : "conv";
+    char what[96];
+    std::snprintf(what, sizeof what, " %s%dx%d s%d d%d %d->%d @%dx%d", kind, s.kernel_h, s.kernel_w, s.stride_h,
+                  s.dilation_h, s.in_c, s.out_c, s.in_h, s.in_w);
+    auto same = std::find_if(out->begin(), out->end(),
+                             [&](const Shape& e) { return e.in_model && e.same_geometry(s); });
+    if (same != out->end()) {  // "L24 pw..." -> "L24,28 pw..."
+      same->name.insert(same->name.find(' '), "," + std::to_string(i));
+      ++same->count;
+      continue;
+    }
+    s.name = "L" + std::to_string(i) + what;
     out->push_back(s);
   }
   return true;
@@ -373,6 +392,7 @@ Family make_family(const Variant (&table)[N]) {
 struct ShapeResult {
   std::string name;
   bool in_model = false, provisional = false;
+  int count = 1;  // model layers of this shape
   double macs = 0;
   double xnn_s = 0, xnn_simd_s = 0;  // XNNPACK, and the one the SIMD path is compared with; 0: none
   double simd_s = 0, best_s = 0;     // our AVX2 (NEON) path and best path
@@ -495,6 +515,7 @@ ShapeResult bench_shape(const Context& ctx, const Shape& sh, const Family& famil
   r.name = sh.name;
   r.in_model = sh.in_model;
   r.provisional = sh.provisional;
+  r.count = sh.count;
   r.macs = sh.macs();
   const int out_h = sh.out_h(), out_w = sh.out_w();
   std::printf("\n%s%s: %dx%dx%d -> %dx%dx%d, %s %dx%d stride %d,%d dilation %d,%d pad t%d l%d b%d r%d, %.3f MMAC\n",
@@ -612,7 +633,7 @@ void print_summary(const std::vector<ShapeResult>& results, const char* simd_vs)
                 "against XNNPACK); goal >= 1.00x on every shape\n", kSimdPathIsa, simd_vs);
   else
     std::printf("\nSummary: GMAC/s on one thread (no XNNPACK figures)\n");
-  std::printf("  %-24s %8s %8s %12s   %-16s %-16s %s\n", "shape", "MMAC", "XNNPACK", simd_vs == std::string("XNNPACK")
+  std::printf("  %-40s %8s %8s %12s   %-16s %-16s %s\n", "shape", "MMAC", "XNNPACK", simd_vs == std::string("XNNPACK")
               ? "-" : simd_vs, (std::string(kSimdPathIsa) + " path").c_str(), "best path", "best %peak");
   double xnn_total = 0, xnn_simd_total = 0, simd_total = 0, best_total = 0;
   int n_model = 0, simd_met = 0, best_met = 0, compared = 0;
@@ -632,11 +653,12 @@ void print_summary(const std::vector<ShapeResult>& results, const char* simd_vs)
       std::snprintf(best, sizeof best, "%.2f", r.macs / r.best_s * 1e-9);
     }
     if (r.best_fraction > 0) std::snprintf(frac, sizeof frac, "%.1f%%", 100.0 * r.best_fraction);
-    std::printf("  %-24s %8.3f %8s %12s   %-16s %-16s %-6s%s\n", r.name.c_str(), r.macs * 1e-6, xnn, xnn_simd, simd,
+    std::printf("  %-40s %8.3f %8s %12s   %-16s %-16s %-6s%s\n", r.name.c_str(), r.macs * 1e-6, xnn, xnn_simd, simd,
                 best, frac, r.provisional ? "  [provisional]" : "");
     if (r.in_model) {
-      ++n_model;
-      xnn_total += r.xnn_s, xnn_simd_total += r.xnn_simd_s, simd_total += r.simd_s, best_total += r.best_s;
+      n_model += r.count;
+      xnn_total += r.count * r.xnn_s, xnn_simd_total += r.count * r.xnn_simd_s;
+      simd_total += r.count * r.simd_s, best_total += r.count * r.best_s;
     }
   }
   if (n_model > 0) {
@@ -703,7 +725,10 @@ int main(int argc, char** argv) {
   if (!model_path.empty()) {
     shapes.push_back(default_shapes().front());
     if (!model_shapes(model_path, &shapes)) return 1;
-    std::printf("Shapes: 3x3 32->32 at 120x160 and the convolutions of %s\n", model_path.c_str());
+    int layers = 0;
+    for (const Shape& sh : shapes) layers += sh.in_model ? sh.count : 0;
+    std::printf("Shapes: 3x3 32->32 at 120x160 and the %zu distinct convolution shapes of %s (%d layers)\n",
+                shapes.size() - 1, model_path.c_str(), layers);
   } else {
     shapes = default_shapes();
     std::printf("Shapes: 3x3 32->32 at 120x160 and a PROVISIONAL list of the planned segmentation model's "
