@@ -250,6 +250,18 @@ TEST(CliModel, ImportWithoutThePythonModuleIsAClearError) {
   EXPECT_NE(r.err.find("--calibration"), std::string::npos) << r.err;
 }
 
+// Issue 28: exactly one network format; the TFLite-only options are refused with ONNX.
+TEST(CliModel, ImportTakesExactlyOneNetwork) {
+  auto r = cli({"model", "import", "--calibration", "synthetic:?frames=2", "--out", "y.efm"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("give exactly one of --onnx FILE and --tflite FILE"), std::string::npos) << r.err;
+  r = cli({"model", "import", "--onnx", "a.onnx", "--tflite", "b.tflite", "--calibration", "synthetic:", "--out", "y.efm"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("both given"), std::string::npos) << r.err;
+  r = cli({"model", "import", "--onnx", "a.onnx", "--input", "257x193", "--calibration", "synthetic:", "--out", "y.efm"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--input applies to --tflite only"), std::string::npos) << r.err;
+}
 
 // With a stand-in module: the arguments and PYTHONPATH it gets, and its exit code comes back.
 TEST(CliModel, ImportRunsTheModuleAndReturnsItsExitCode) {
