@@ -174,7 +174,7 @@ def main():
     with tempfile.TemporaryDirectory(prefix="edgefusion-headline-") as work:
         s = slam(args, work)
         c = cnn(args, "edgefusion-seg.efm")
-        r = cnn(args, "deeplabv3-mnv2-nyu13.efm")
+        dl = cnn(args, "deeplabv3-mnv2-nyu13.efm")
         a = agreement(args)
         p = pipeline(args, work)
     load_after = os.getloadavg()[0]
@@ -189,11 +189,11 @@ def main():
         ("Open3D time / SLAM time", f"{s['ratio']:.1f}x", kitchen, "same run"),
         ("Trajectory error (ATE RMSE): EdgeFusion / Open3D", f"{s['ours_ate_cm']:.2f} / {s['o3d_ate_cm']:.2f} cm",
          kitchen, "same run, `edgefusion eval ate`"),
-        (f"Real-camera CNN (DeepLabv3-MobileNetV2, 257x193, {r['mmac'] / 1000:.2f} G multiply-adds): whole forward "
-         f"pass, {r['forward_isa']}, one thread", f"{r['forward_ms']:.1f} ms", "any input (timing)",
+        (f"Real-camera CNN (DeepLabv3-MobileNetV2, 257x193, {dl['mmac'] / 1000:.2f} G multiply-adds): whole forward "
+         f"pass, {dl['forward_isa']}, one thread", f"{dl['forward_ms']:.1f} ms", "any input (timing)",
          "bench_nn_model --model"),
-        (f"Its convolutions ({r['layers']} layers), one frame: ours / XNNPACK, best ISA",
-         f"{r['best_ms']:.2f} / {r['xnn_ms']:.2f} ms ({r['best_ratio']:.2f}x)", "any input (timing)",
+        (f"Its convolutions ({dl['layers']} layers), one frame: ours / XNNPACK, best ISA",
+         f"{dl['best_ms']:.2f} / {dl['xnn_ms']:.2f} ms ({dl['best_ratio']:.2f}x)", "any input (timing)",
          "bench_nn_conv --model"),
         ("Its int8 labels against the float network of the TFLite file (argmax agreement, 14 classes)",
          f"{100 * a['agreement']:.2f}% of pixels", f"real: every 10th of the {args.frames} 7-Scenes frames",
@@ -238,9 +238,9 @@ in this one run; rerun the script when a change can move one of them.
   included).
 - CNNs (`bench_nn_conv --model M --reps 9`, `bench_nn_model --model M --reps 9`, M each shipped
   model): thread CPU time, one thread, median of 9. Our kernels are faster than XNNPACK's on
-  {r['shapes'][0] if r['shapes'] else '?'} of {r['shapes'][1] if r['shapes'] else '?'} convolution shapes of the
+  {dl['shapes'][0] if dl['shapes'] else '?'} of {dl['shapes'][1] if dl['shapes'] else '?'} convolution shapes of the
   real-camera network and {c['shapes'][0] if c['shapes'] else '?'} of {c['shapes'][1] if c['shapes'] else '?'}
-  of EdgeSegNet on the best path. The forward passes' scalar references: {r['scalar_ms']:.1f} ms and
+  of EdgeSegNet on the best path. The forward passes' scalar references: {dl['scalar_ms']:.1f} ms and
   {c['scalar_ms']:.1f} ms. Agreement: median frame {100 * a['median_frame_agreement']:.2f}%, worst
   {100 * a['worst_frame_agreement']:.2f}% ({a['frames']} frames).
 - Pipeline: two threads / one thread, side by side per repetition, median {p['ratio']:.2f}x; two-thread
