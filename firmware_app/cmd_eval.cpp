@@ -47,6 +47,7 @@ int eval_ate(int argc, char** argv) {
   if (!max_dt.ok()) return report_error(kCmd, max_dt.error(), 2);
   auto r = evaluate_ate_files(args->positionals()[0], args->positionals()[1], *max_dt);
   if (!r.ok()) return report_error(kCmd, r.error(), 1);
+  if (!r->warnings.empty()) std::fprintf(stderr, "%s: warning: %s", kCmd, r->warnings.c_str());
   std::printf("%s", format_ate(*r).c_str());
   return 0;
 }
@@ -67,6 +68,7 @@ int eval_rpe(int argc, char** argv) {
   if (!max_dt.ok()) return report_error(kCmd, max_dt.error(), 2);
   auto r = evaluate_rpe_files(args->positionals()[0], args->positionals()[1], static_cast<int>(*delta), *max_dt);
   if (!r.ok()) return report_error(kCmd, r.error(), 1);
+  if (!r->warnings.empty()) std::fprintf(stderr, "%s: warning: %s", kCmd, r->warnings.c_str());
   std::printf("%s", format_rpe(*r).c_str());
   return 0;
 }

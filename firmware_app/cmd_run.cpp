@@ -196,6 +196,7 @@ int cmd_run(int argc, char** argv) {
     std::fprintf(stderr, "%s: %s\n", kCmd, pipeline.semantics()->describe().c_str());
   else
     std::fprintf(stderr, "%s: labels off (geometry only)\n", kCmd);
+  if (pipeline.out_folder() != config.run.out) std::fprintf(stderr, "%s: run folder %s\n", kCmd, pipeline.out_folder().c_str());
   std::fprintf(stderr, "%s: memory plan %.1f MB of the %lld MB budget (`edgefusion plan` lists the parts)\n", kCmd,
                static_cast<double>(plan->total_bytes) / 1e6, static_cast<long long>(config.memory.budget_mb));
 
@@ -220,7 +221,7 @@ int cmd_run(int argc, char** argv) {
               static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.pool().size()));
   if (files.wrote_trajectory) std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
-  std::printf("stats: %s\n", files.stats.c_str());
+  if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());
   // The final map's labels in the recording's frames: a second reading, after the outputs are safe.
   if (!config.labels.final_out.empty() && outcome.frames > 0) {
     std::fprintf(stderr, "%s: rendering the final map's labels into %s, every %d frames\n", kCmd,

@@ -1,11 +1,15 @@
-// Helpers shared by the tests: where the shared research data is, and scratch folders.
+// Helpers shared by the tests: where the shared research data is, scratch folders, a small disk.
 #pragma once
 
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
-#include <unistd.h>
 #include <vector>
+
+#include <sys/mount.h>
+#include <unistd.h>
 
 namespace ef::test {
 
@@ -55,7 +59,36 @@ inline std::filesystem::path scratch_dir(const std::string& test_name) {
   return dir;
 }
 
+// A small file system of its own (tmpfs of `bytes`) mounted on a scratch folder, for full-disk
+// tests; unmounted when destroyed. Mounting needs root (CAP_SYS_ADMIN): where it fails, ok() is
+// false and why() says so, and the test skips with that reason (EF_SKIP_WITHOUT_SMALL_DISK).
+class SmallDisk {
+ public:
+  SmallDisk(const std::string& test_name, std::size_t bytes) : dir_(scratch_dir(test_name) / "disk") {
+    std::filesystem::create_directories(dir_);
+    const std::string options = "size=" + std::to_string(bytes);
+    if (::mount("tmpfs", dir_.c_str(), "tmpfs", 0, options.c_str()) == 0) mounted_ = true;
+    else why_ = "cannot mount a small tmpfs for a full-disk test (" + std::string(std::strerror(errno)) + "; needs root)";
+  }
+  ~SmallDisk() {
+    if (mounted_) ::umount2(dir_.c_str(), MNT_DETACH);
+  }
+  SmallDisk(const SmallDisk&) = delete;
+  SmallDisk& operator=(const SmallDisk&) = delete;
+  bool ok() const { return mounted_; }
+  const std::string& why() const { return why_; }
+  const std::filesystem::path& dir() const { return dir_; }
+
+ private:
+  std::filesystem::path dir_;
+  bool mounted_ = false;
+  std::string why_;
+};
+
 }  // namespace ef::test
+
+#define EF_SKIP_WITHOUT_SMALL_DISK(disk) \
+  if (!(disk).ok()) GTEST_SKIP() << (disk).why()
 
 #define EF_SKIP_WITHOUT_DATASET(var, name)                                                   \
   const std::filesystem::path var = ::ef::test::shared_dataset(name);                       \

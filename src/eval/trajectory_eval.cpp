@@ -136,17 +136,30 @@ Result<RpeResult> evaluate_rpe(const Trajectory& gt, const Trajectory& est, int 
   return r;
 }
 
+namespace {
+std::string cut_warnings(const Trajectory& gt, const Trajectory& est) {
+  std::string w;
+  for (const Trajectory* t : {&gt, &est})
+    if (t->cut_line != 0) w += t->cut_line_warning() + "\n";
+  return w;
+}
+}  // namespace
+
 Result<AteResult> evaluate_ate_files(const std::string& gt_path, const std::string& est_path, double max_dt) {
   EF_ASSIGN_OR_RETURN(Trajectory gt, read_tum_trajectory(gt_path));
   EF_ASSIGN_OR_RETURN(Trajectory est, read_tum_trajectory(est_path));
-  return evaluate_ate(gt, est, max_dt);
+  EF_ASSIGN_OR_RETURN(AteResult r, evaluate_ate(gt, est, max_dt));
+  r.warnings = cut_warnings(gt, est);
+  return r;
 }
 
 Result<RpeResult> evaluate_rpe_files(const std::string& gt_path, const std::string& est_path, int delta_frames,
                                      double max_dt) {
   EF_ASSIGN_OR_RETURN(Trajectory gt, read_tum_trajectory(gt_path));
   EF_ASSIGN_OR_RETURN(Trajectory est, read_tum_trajectory(est_path));
-  return evaluate_rpe(gt, est, delta_frames, max_dt);
+  EF_ASSIGN_OR_RETURN(RpeResult r, evaluate_rpe(gt, est, delta_frames, max_dt));
+  r.warnings = cut_warnings(gt, est);
+  return r;
 }
 
 std::string format_ate(const AteResult& r) {

@@ -34,6 +34,7 @@ struct AteResult {
   int pairs = 0;                // associated poses used
   SE3 T_gt_est;                 // alignment applied to the estimate: p_gt ~ T_gt_est * p_est
   std::vector<double> errors_m; // per associated pair, in ground-truth time order
+  std::string warnings;         // from the *_files readers: a cut last line left out (one per line)
 };
 
 // Errors (naming both trajectories' sources): fewer than 3 associated pairs, max_dt < 0.
@@ -48,6 +49,7 @@ struct RpeResult {
   double rot_mean_deg = 0;
   double rot_max_deg = 0;
   int pairs = 0;  // relative-pose pairs (i, i + delta) evaluated
+  std::string warnings;  // from the *_files readers: a cut last line left out (one per line)
 };
 
 // delta_frames counts associated poses in estimate order (pose i against pose i + delta among the
@@ -55,7 +57,8 @@ struct RpeResult {
 // frame-independent. Errors: delta_frames < 1, no pair (i, i + delta) after association.
 Result<RpeResult> evaluate_rpe(const Trajectory& gt, const Trajectory& est, int delta_frames, double max_dt = 0.02);
 
-// Reads both files and evaluates; errors from reading name the file and line.
+// Reads both files and evaluates; errors from reading name the file and line. A file whose last line
+// was cut while written (a killed run) is evaluated without it, and `warnings` says so.
 Result<AteResult> evaluate_ate_files(const std::string& gt_path, const std::string& est_path, double max_dt = 0.02);
 Result<RpeResult> evaluate_rpe_files(const std::string& gt_path, const std::string& est_path, int delta_frames,
                                      double max_dt = 0.02);

@@ -17,6 +17,8 @@
 #include <jerror.h>
 #include <png.h>
 
+#include "io/durable_file.h"
+
 namespace ef {
 
 namespace {
@@ -355,10 +357,11 @@ Status read_png_gray(const std::string& path, PngTarget target, const PngOutputs
   return Status();
 }
 
+// Writes the PNG into `file`; errors name `path`, the file it becomes.
 template <class T>
-Status write_png_impl(const std::string& path, ImageView<const T> image, int color_type, int bit_depth) {
-  if (image.empty()) return file_error(path, "cannot write an empty image", ErrorCode::kInvalidArgument);
-  std::FILE* fp = std::fopen(path.c_str(), "wb");
+Status write_png_file(const std::string& file, const std::string& path, ImageView<const T> image, int color_type,
+                      int bit_depth) {
+  std::FILE* fp = std::fopen(file.c_str(), "wb");
   if (!fp) return open_error(path, errno);
   PngErrorState st;
   st.msg[0] = '\0';
@@ -387,6 +390,15 @@ Status write_png_impl(const std::string& path, ImageView<const T> image, int col
   const bool close_failed = std::fclose(fp) != 0;
   if (flush_failed || close_failed) return file_error(path, "write failed (disk full?)", ErrorCode::kIoError);
   return Status();
+}
+
+// Whole or absent: written as <path>.partial and renamed into place (not synced: a frame's image).
+template <class T>
+Status write_png_impl(const std::string& path, ImageView<const T> image, int color_type, int bit_depth) {
+  if (image.empty()) return file_error(path, "cannot write an empty image", ErrorCode::kInvalidArgument);
+  FileReplacement replacement(path, Durability::kAtomic);
+  EF_RETURN_IF_ERROR(write_png_file(replacement.temp_path(), path, image, color_type, bit_depth));
+  return replacement.commit();
 }
 
 }  // namespace

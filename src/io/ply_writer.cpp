@@ -7,6 +7,8 @@
 #include <memory>
 #include <sstream>
 
+#include "io/durable_file.h"
+
 namespace ef {
 
 namespace {
@@ -40,7 +42,10 @@ Status write_surfel_ply(const std::string& path, const SurfelCloudView& cloud, c
     return error(ErrorCode::kInvalidArgument, path + ": surfel view without x, y, z columns");
   if (comment.find_first_of("\r\n") != std::string::npos)
     return error(ErrorCode::kInvalidArgument, path + ": PLY comment must be a single line");
-  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(path.c_str(), "wb"));
+  // Written as <path>.partial and renamed into place once whole and synced: a crash or a full disk
+  // leaves the earlier map (or none), never a header promising more vertices than follow.
+  FileReplacement replacement(path);
+  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(replacement.temp_path().c_str(), "wb"));
   if (!f) return error(ErrorCode::kIoError, path + ": cannot create: " + std::strerror(errno));
   std::string header = "ply\nformat binary_little_endian 1.0\ncomment EdgeFusion surfel map\n";
   if (!comment.empty()) header += "comment " + comment + "\n";
@@ -52,7 +57,7 @@ Status write_surfel_ply(const std::string& path, const SurfelCloudView& cloud, c
       "property float radius\nproperty float confidence\n"
       "property uchar class_id\nproperty float class_prob\nend_header\n";
   if (std::fwrite(header.data(), 1, header.size(), f.get()) != header.size())
-    return error(ErrorCode::kIoError, path + ": header write failed");
+    return error(ErrorCode::kIoError, path + ": header write failed: " + std::strerror(errno));
 
   constexpr std::size_t kPerChunk = 65536 / kPlySurfelRecordBytes;
   static_assert(kPerChunk > 0, "chunk");
@@ -78,11 +83,12 @@ Status write_surfel_ply(const std::string& path, const SurfelCloudView& cloud, c
     }
     const std::size_t bytes = static_cast<std::size_t>(p - buf);
     if (std::fwrite(buf, 1, bytes, f.get()) != bytes)
-      return error(ErrorCode::kIoError, path + ": write failed after " + std::to_string(i - n) + " vertices");
+      return error(ErrorCode::kIoError, path + ": write failed after " + std::to_string(i - n) + " of " +
+                                            std::to_string(cloud.count) + " vertices: " + std::strerror(errno));
   }
   std::FILE* raw = f.release();
-  if (std::fclose(raw) != 0) return error(ErrorCode::kIoError, path + ": close failed: " + std::strerror(errno));
-  return Status::success();
+  if (std::fclose(raw) != 0) return error(ErrorCode::kIoError, path + ": write failed: " + std::strerror(errno));
+  return replacement.commit();
 }
 
 SurfelCloudView SurfelCloud::view() const {

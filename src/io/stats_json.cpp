@@ -6,6 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "io/durable_file.h"
+
 namespace ef {
 
 void JsonWriter::append_escaped(std::string& out, std::string_view s) {
@@ -82,12 +84,27 @@ void JsonWriter::value(double v) {
 
 void JsonWriter::value(int64_t v) {
   before_value();
-  out_ += std::to_string(v);
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(v));
+  out_ += buf;
 }
 
 void JsonWriter::value(uint64_t v) {
   before_value();
-  out_ += std::to_string(v);
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%llu", static_cast<unsigned long long>(v));
+  out_ += buf;
+}
+
+void JsonWriter::clear() {
+  out_.clear();
+  first_.clear();
+  after_key_ = false;
+}
+
+void JsonWriter::reserve(std::size_t bytes, std::size_t depth) {
+  out_.reserve(bytes);
+  first_.reserve(depth);
 }
 
 void JsonWriter::value(std::string_view s) {
@@ -105,10 +122,14 @@ void JsonWriter::value_bool(bool b) {
   out_ += b ? "true" : "false";
 }
 
-std::string stats_to_json(const StageStats& stats, uint64_t frames, double seconds,
-                          const std::vector<StatsExtraField>& extra) {
-  JsonWriter w;
+void write_stats_object(JsonWriter& w, const StageStats& stats, uint64_t frames, double seconds,
+                        const std::vector<StatsExtraField>& extra, std::string_view state) {
+  w.clear();
   w.begin_object();
+  if (!state.empty()) {
+    w.key("state");
+    w.value(state);
+  }
   w.key("frames");
   w.value(frames);
   w.key("seconds");
@@ -146,18 +167,27 @@ std::string stats_to_json(const StageStats& stats, uint64_t frames, double secon
   }
   w.end_object();
   w.end_object();
-  return w.str() + "\n";
+  w.raw("\n");
+}
+
+std::string stats_to_json(const StageStats& stats, uint64_t frames, double seconds,
+                          const std::vector<StatsExtraField>& extra, std::string_view state) {
+  JsonWriter w;
+  write_stats_object(w, stats, frames, seconds, extra, state);
+  return w.str();
 }
 
 Status write_stats_json(const std::string& path, const StageStats& stats, uint64_t frames, double seconds,
-                        const std::vector<StatsExtraField>& extra) {
-  const std::string text = stats_to_json(stats, frames, seconds, extra);
-  std::FILE* f = std::fopen(path.c_str(), "wb");
+                        const std::vector<StatsExtraField>& extra, std::string_view state) {
+  const std::string text = stats_to_json(stats, frames, seconds, extra, state);
+  FileReplacement replacement(path);  // whole or not at all (io/durable_file.h)
+  std::FILE* f = std::fopen(replacement.temp_path().c_str(), "wb");
   if (!f) return error(ErrorCode::kIoError, path + ": cannot create: " + std::strerror(errno));
-  const bool wrote = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  const bool wrote = std::fwrite(text.data(), 1, text.size(), f) == text.size() && std::fflush(f) == 0;
+  const int e = errno;
   const bool closed = std::fclose(f) == 0;
-  if (!wrote || !closed) return error(ErrorCode::kIoError, path + ": write failed");
-  return Status::success();
+  if (!wrote || !closed) return error(ErrorCode::kIoError, path + ": write failed: " + std::strerror(e));
+  return replacement.commit();
 }
 
 }  // namespace ef

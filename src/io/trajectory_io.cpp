@@ -1,10 +1,14 @@
 #include "io/trajectory_io.h"
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+
+#include <fcntl.h>
+#include <unistd.h>
 
 namespace ef {
 
@@ -39,99 +43,156 @@ bool parse_double(const std::string& s, double& out) {
 
 }  // namespace
 
+namespace {
+
+// One line of a TUM file: a comment (a "# lost" one marks the next pose), a blank, or a pose appended
+// to `traj`. Errors name the file and the line.
+Status parse_line(const std::string& line, const std::string& path, int line_no, Trajectory& traj,
+                  bool& next_lost) {
+  static const char* const kFieldNames[8] = {"timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"};
+  const std::size_t first = line.find_first_not_of(" \t\r");
+  if (first == std::string::npos) return Status::success();
+  if (line[first] == '#') {
+    next_lost = next_lost || line.compare(first, 7, "# lost ") == 0;
+    return Status::success();
+  }
+  std::string fields[8];
+  const int n = split_fields(line, fields, 8);
+  if (n != 8) {
+    return error(ErrorCode::kCorruptData, where(path, line_no) + "expected 8 fields "
+                 "'timestamp tx ty tz qx qy qz qw', found " + std::to_string(n));
+  }
+  double v[8];
+  for (int k = 0; k < 8; ++k) {
+    if (!parse_double(fields[k], v[k])) {
+      return error(ErrorCode::kCorruptData, where(path, line_no) + "field " + std::to_string(k + 1) + " (" +
+                   kFieldNames[k] + ") '" + fields[k] + "' is not a finite number");
+    }
+  }
+  const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // (w, x, y, z)
+  const double qn = q.norm();
+  if (!(qn > 1e-9)) return error(ErrorCode::kCorruptData, where(path, line_no) + "zero quaternion");
+  if (!traj.poses.empty() && !(v[0] > traj.poses.back().timestamp)) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "timestamp %.6f is not after the previous one (%.6f)", v[0],
+                  traj.poses.back().timestamp);
+    return error(ErrorCode::kCorruptData, where(path, line_no) + buf);
+  }
+  traj.poses.push_back(TimedPose{v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3])), next_lost});
+  next_lost = false;
+  return Status::success();
+}
+
+}  // namespace
+
+std::string Trajectory::cut_line_warning() const {
+  if (cut_line == 0) return {};
+  return source + ":" + std::to_string(cut_line) +
+         ": the last line was cut while the file was written (no newline, not a whole pose); left out";
+}
+
 Result<Trajectory> read_tum_trajectory(const std::string& path) {
   std::ifstream in(path);
   if (!in) return error(ErrorCode::kNotFound, path + ": cannot open trajectory file");
-  static const char* const kFieldNames[8] = {"timestamp", "tx", "ty", "tz", "qx", "qy", "qz", "qw"};
   Trajectory traj;
   traj.source = path;
   std::string line;
-  std::string fields[8];
   int line_no = 0;
   bool next_lost = false;  // a "# lost" line was read and no pose line since
   while (std::getline(in, line)) {
     ++line_no;
-    std::size_t first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos) continue;
-    if (line[first] == '#') {
-      next_lost = next_lost || line.compare(first, 7, "# lost ") == 0;
-      continue;
+    // eof while reading a line that was returned: the file ends without a newline.
+    if (in.eof()) {
+      if (!parse_line(line, path, line_no, traj, next_lost).ok()) traj.cut_line = line_no;
+      break;
     }
-    const int n = split_fields(line, fields, 8);
-    if (n != 8) {
-      return error(ErrorCode::kCorruptData, where(path, line_no) + "expected 8 fields "
-                   "'timestamp tx ty tz qx qy qz qw', found " + std::to_string(n));
-    }
-    double v[8];
-    for (int k = 0; k < 8; ++k) {
-      if (!parse_double(fields[k], v[k])) {
-        return error(ErrorCode::kCorruptData, where(path, line_no) + "field " + std::to_string(k + 1) + " (" +
-                     kFieldNames[k] + ") '" + fields[k] + "' is not a finite number");
-      }
-    }
-    const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // (w, x, y, z)
-    const double qn = q.norm();
-    if (!(qn > 1e-9)) return error(ErrorCode::kCorruptData, where(path, line_no) + "zero quaternion");
-    if (!traj.poses.empty() && !(v[0] > traj.poses.back().timestamp)) {
-      char buf[96];
-      std::snprintf(buf, sizeof buf, "timestamp %.6f is not after the previous one (%.6f)", v[0],
-                    traj.poses.back().timestamp);
-      return error(ErrorCode::kCorruptData, where(path, line_no) + buf);
-    }
-    traj.poses.push_back(TimedPose{v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3])), next_lost});
-    next_lost = false;
+    EF_RETURN_IF_ERROR(parse_line(line, path, line_no, traj, next_lost));
   }
   if (in.bad()) return error(ErrorCode::kIoError, path + ": read failed after line " + std::to_string(line_no));
   return traj;
 }
 
-TumTrajectoryWriter::~TumTrajectoryWriter() {
-  if (file_) std::fclose(file_);
+TumTrajectoryWriter::~TumTrajectoryWriter() { (void)close(); }
+
+namespace {
+int64_t steady_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+}  // namespace
+
+Status TumTrajectoryWriter::open(const std::string& path, double sync_seconds) {
+  (void)close();
+  path_ = path;
+  sync_seconds_ = sync_seconds;
+  bytes_ = 0;
+  lines_ = 0;
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd_ < 0) return error(ErrorCode::kIoError, path + ": cannot create trajectory file: " + std::strerror(errno));
+  last_sync_ns_ = steady_ns();
+  static constexpr char kHeader[] = "# timestamp tx ty tz qx qy qz qw\n";
+  return append(kHeader, sizeof kHeader - 1);
 }
 
-Status TumTrajectoryWriter::open(const std::string& path) {
-  if (file_) {
-    std::fclose(file_);
-    file_ = nullptr;
+Status TumTrajectoryWriter::append(const char* line, std::size_t n) {
+  std::size_t done = 0;
+  while (done < n) {
+    const ssize_t w = ::write(fd_, line + done, n - done);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) {
+      const int e = w < 0 ? errno : ENOSPC;
+      // A part of the line went out: cut the file back to the last whole line.
+      if (done > 0 && ::ftruncate(fd_, static_cast<off_t>(bytes_)) == 0) ::lseek(fd_, static_cast<off_t>(bytes_), SEEK_SET);
+      return error(ErrorCode::kIoError, path_ + ": write failed after " + std::to_string(lines_) +
+                                            " lines: " + std::strerror(e));
+    }
+    done += static_cast<std::size_t>(w);
   }
-  path_ = path;
-  file_ = std::fopen(path.c_str(), "w");
-  if (!file_) return error(ErrorCode::kIoError, path + ": cannot create trajectory file: " + std::strerror(errno));
-  if (std::fputs("# timestamp tx ty tz qx qy qz qw\n", file_) < 0)
-    return error(ErrorCode::kIoError, path + ": write failed");
+  bytes_ += static_cast<int64_t>(n);
+  ++lines_;
+  unsynced_ = true;
+  if (sync_seconds_ >= 0) {
+    const int64_t now = steady_ns();
+    if (static_cast<double>(now - last_sync_ns_) >= sync_seconds_ * 1e9) return flush();
+  }
   return Status::success();
 }
 
 Status TumTrajectoryWriter::write(double timestamp, const SE3& T_wc) {
-  if (!file_) return error(ErrorCode::kInvalidArgument, "trajectory writer: write() before open()");
+  if (fd_ < 0) return error(ErrorCode::kInvalidArgument, "trajectory writer: write() before open()");
   Eigen::Quaterniond q = T_wc.rotation();
   if (q.w() < 0) q.coeffs() = -q.coeffs();
   const Eigen::Vector3d& t = T_wc.translation();
-  const int rc = std::fprintf(file_, "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", timestamp, t.x(), t.y(), t.z(),
-                              q.x(), q.y(), q.z(), q.w());
-  if (rc < 0) return error(ErrorCode::kIoError, path_ + ": write failed");
-  return Status::success();
+  char line[256];
+  const int n = std::snprintf(line, sizeof line, "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", timestamp, t.x(),
+                              t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  if (n <= 0 || n >= static_cast<int>(sizeof line)) return error(ErrorCode::kInvalidArgument, path_ + ": pose line too long");
+  return append(line, static_cast<std::size_t>(n));
 }
 
 Status TumTrajectoryWriter::write_comment(const char* text) {
-  if (!file_) return error(ErrorCode::kInvalidArgument, "trajectory writer: write_comment() before open()");
-  if (std::fprintf(file_, "# %s\n", text) < 0) return error(ErrorCode::kIoError, path_ + ": write failed");
-  return Status::success();
+  if (fd_ < 0) return error(ErrorCode::kInvalidArgument, "trajectory writer: write_comment() before open()");
+  char line[256];
+  const int n = std::snprintf(line, sizeof line, "# %s\n", text);
+  if (n <= 0 || n >= static_cast<int>(sizeof line) || std::strchr(text, '\n') != nullptr)
+    return error(ErrorCode::kInvalidArgument, path_ + ": a comment must be one line of at most 250 bytes");
+  return append(line, static_cast<std::size_t>(n));
 }
 
 Status TumTrajectoryWriter::flush() {
-  if (!file_) return Status::success();
-  if (std::fflush(file_) != 0) return error(ErrorCode::kIoError, path_ + ": flush failed: " + std::strerror(errno));
+  if (fd_ < 0 || !unsynced_) return Status::success();
+  last_sync_ns_ = steady_ns();
+  if (::fdatasync(fd_) != 0) return error(ErrorCode::kIoError, path_ + ": sync failed: " + std::strerror(errno));
+  unsynced_ = false;
   return Status::success();
 }
 
 Status TumTrajectoryWriter::close() {
-  if (!file_) return Status::success();
-  const bool write_failed = std::ferror(file_) != 0;
-  const int rc = std::fclose(file_);
-  file_ = nullptr;
-  if (write_failed || rc != 0) return error(ErrorCode::kIoError, path_ + ": write or close failed");
-  return Status::success();
+  if (fd_ < 0) return Status::success();
+  Status synced = flush();
+  if (::close(fd_) != 0 && synced.ok()) synced = error(ErrorCode::kIoError, path_ + ": close failed: " + std::strerror(errno));
+  fd_ = -1;
+  return synced;
 }
 
 Status write_tum_trajectory(const std::string& path, const std::vector<TimedPose>& poses) {

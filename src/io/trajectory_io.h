@@ -5,6 +5,7 @@
 // that follows it as lost.
 #pragma once
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -23,16 +24,27 @@ struct TimedPose {
 struct Trajectory {
   std::string source;            // file it came from (or a label such as "ground truth"); used in errors
   std::vector<TimedPose> poses;  // strictly increasing timestamps
+  // The 1-based number of a last line that was cut while the file was written (no newline, not a
+  // valid pose line); it was left out. 0: none. Readers say so (cut_line_warning()).
+  int cut_line = 0;
+  std::string cut_line_warning() const;  // empty when cut_line == 0
 };
 
 // Reads a TUM trajectory. Errors name the file and the 1-based line: a field that is not a finite
 // number, a line without exactly 8 fields, a zero quaternion, a timestamp not strictly greater than
-// the previous one. An empty file (no poses) is not an error here; evaluators reject it.
+// the previous one. An empty file (no poses) is not an error here; evaluators reject it. A last line
+// without its newline that is not a valid pose line is what a writer killed mid-line leaves: it is
+// left out and named in Trajectory::cut_line, not an error (one with its newline is an error).
 Result<Trajectory> read_tum_trajectory(const std::string& path);
 
 // Writes poses one per frame to a TUM file: open once, then write() per frame without allocating.
 // Timestamps are written with 6 decimals (microseconds), translations and quaternions with 9
 // significant digits. The quaternion is written with qw >= 0.
+//
+// Crash safety (issue 29): each line goes to the file in one write(2), so a killed process leaves
+// whole lines only; a write that fails part way (a full disk) is cut back to the last whole line and
+// reported. The file is synced (fdatasync) at most `sync_seconds` after a line was written (0: after
+// every line; negative: only at close), so a power cut loses at most that long.
 class TumTrajectoryWriter {
  public:
   TumTrajectoryWriter() = default;
@@ -41,22 +53,29 @@ class TumTrajectoryWriter {
   TumTrajectoryWriter& operator=(const TumTrajectoryWriter&) = delete;
 
   // Creates (truncates) `path` and writes a '#' header line. The parent folder must exist.
-  Status open(const std::string& path);
-  // Appends one line. Error if not open or the write fails.
+  Status open(const std::string& path, double sync_seconds = -1);
+  // Appends one line. Error if not open or the write fails (naming the file, the line and the reason).
   Status write(double timestamp, const SE3& T_wc);
   // Appends "# <text>" as its own line (TUM readers skip it). `text` must be one line. Used by
   // `edgefusion run` to mark a lost frame just before its pose line: "# lost <timestamp> <reason>".
   Status write_comment(const char* text);
-  // Flushes the stdio buffer to the OS (the file stays open).
+  // Syncs what was written to the disk now (the file stays open).
   Status flush();
-  // Flushes and closes; reports a failed final write. Safe to call twice.
+  // Syncs and closes; reports a failed sync. Safe to call twice.
   Status close();
-  bool is_open() const { return file_ != nullptr; }
+  bool is_open() const { return fd_ >= 0; }
   const std::string& path() const { return path_; }
+  int64_t lines() const { return lines_; }  // lines written, the header included
 
  private:
-  std::FILE* file_ = nullptr;
+  Status append(const char* line, std::size_t n);
+  int fd_ = -1;
   std::string path_;
+  double sync_seconds_ = -1;
+  int64_t bytes_ = 0;          // the file's length: whole lines only
+  int64_t lines_ = 0;
+  int64_t last_sync_ns_ = 0;   // steady clock
+  bool unsynced_ = false;      // lines written since the last sync
 };
 
 // Convenience: writes a whole trajectory.

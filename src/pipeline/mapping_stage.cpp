@@ -15,11 +15,12 @@ slam::SurfelSlamOptions MappingStage::slam_options(const slam::SurfelSlamOptions
 
 Result<std::unique_ptr<MappingStage>> MappingStage::create(const slam::SurfelSlamOptions& options,
                                                            const Intrinsics& working, StageStats& stats,
-                                                           RunSemantics* semantics, const std::string& trajectory_path) {
+                                                           RunSemantics* semantics, const std::string& trajectory_path,
+                                                           double sync_seconds) {
   auto slam = slam::SurfelSlam::create(working, slam_options(options));
   if (!slam.ok()) return slam.take_error();
   std::unique_ptr<MappingStage> m(new MappingStage(std::move(*slam), stats, semantics));
-  EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path));
+  EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path, sync_seconds));
   int ids[std::size(kStageNames)];
   for (std::size_t i = 0; i < std::size(kStageNames); ++i) ids[i] = stats.add_stage(kStageNames[i]);
   m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8]};

@@ -38,10 +38,12 @@ class MappingStage {
   // options: the run's SLAM (the front step preprocesses, so the SLAM gets no preprocessor of its
   // own: options.own_preprocessor is set false here). working: intrinsics at the working
   // resolution. semantics: borrowed, may be null. The trajectory is written to `trajectory_path`
-  // (created now). Errors: the SLAM's options, the file's.
+  // (created now), a whole line per frame, synced at most `sync_seconds` after a line
+  // (io/trajectory_io.h). Errors: the SLAM's options, the file's.
   static Result<std::unique_ptr<MappingStage>> create(const slam::SurfelSlamOptions& options,
                                                       const Intrinsics& working, StageStats& stats,
-                                                      RunSemantics* semantics, const std::string& trajectory_path);
+                                                      RunSemantics* semantics, const std::string& trajectory_path,
+                                                      double sync_seconds);
   // The options create() gives the SLAM.
   static slam::SurfelSlamOptions slam_options(const slam::SurfelSlamOptions& options);
 

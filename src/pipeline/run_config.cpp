@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "pipeline/run_folder.h"
 #include "platform/cpu/thread_affinity.h"
 
 namespace ef::pipeline {
@@ -17,7 +18,9 @@ const opt::Table<RunOptions>& RunOptions::table() {
       {"frames", "", "--frames", &RunOptions::frames, "frames", opt::at_least(1).or_value(-1, "all the source has"),
        "how many to process, from the first"},
       {"out", "", "--out", &RunOptions::out, "a folder", opt::any(),
-       "output folder, created if missing; run needs it here or as --out"},
+       "output folder, created if missing; run needs it here or as --out. A folder that holds an earlier run is "
+       "refused (output.overwrite); {time} in it gives each run its own folder, named by its start time, with a "
+       "link `latest` beside it to the newest"},
       {"progress", "", "--quiet", &RunOptions::progress, "", opt::any(), "progress line on stderr"},
       {"map", "", "", &RunOptions::map, "", opt::any(), "write map.ply at the end of the run"},
       {"realtime", "", "--realtime", &RunOptions::realtime, "", opt::any(),
@@ -96,6 +99,22 @@ const opt::Table<MemoryOptions>& MemoryOptions::table() {
 
 Status MemoryOptions::validate() const { return opt::check_table(*this, table(), "memory"); }
 
+const opt::Table<OutputOptions>& OutputOptions::table() {
+  static const opt::Table<OutputOptions> t = {
+      {"sync_seconds", "", "--sync-seconds", &OutputOptions::sync_seconds, "s", opt::between(0, 3600),
+       "trajectory.txt is synced to the disk at most this long after a line (a power cut loses no more); 0 = "
+       "after every line"},
+      {"stats_seconds", "", "--stats-seconds", &OutputOptions::stats_seconds, "s",
+       opt::between(0.1, 86400).or_value(0, "at the start and the end only"),
+       "stats.json is rewritten whole (state \"running\") this often during the run"},
+      {"overwrite", "", "--overwrite", &OutputOptions::overwrite, "", opt::any(),
+       "replace the outputs of an earlier run in `out`; otherwise a folder that holds one is refused"},
+  };
+  return t;
+}
+
+Status OutputOptions::validate() const { return opt::check_table(*this, table(), "output"); }
+
 // ---- The keys, bound into RunConfig ----
 
 namespace {
@@ -144,6 +163,7 @@ std::vector<ConfigKey> make_keys() {
   bind_table(k, "crf", "", "", semantic::DenseCrfOptions::table(), [](auto& c) -> auto& { return c.dense_crf; });
   bind_table(k, "pipeline", "", "", PipelineOptions::table(), [](auto& c) -> auto& { return c.pipeline; });
   bind_table(k, "memory", "", "", MemoryOptions::table(), [](auto& c) -> auto& { return c.memory; });
+  bind_table(k, "output", "", "", OutputOptions::table(), [](auto& c) -> auto& { return c.output; });
   bind_table(k, "gpio", "led_", "status LED: ", GpioLineConfig::table(), [](auto& c) -> auto& { return c.gpio.led; });
   bind_table(k, "gpio", "button_", "start/stop button: ", GpioLineConfig::table(),
        [](auto& c) -> auto& { return c.gpio.button; });
@@ -243,6 +263,7 @@ Status RunConfig::validate(const std::vector<int>& cores) const {
   if (labels.enabled && crf.on()) EF_RETURN_IF_ERROR(crf_options_for_run(*this).validate());
   EF_RETURN_IF_ERROR(pipeline.validate());
   EF_RETURN_IF_ERROR(memory.validate());
+  EF_RETURN_IF_ERROR(output.validate());
   EF_RETURN_IF_ERROR(gpio.validate());
 
   // Between the parts.
@@ -271,6 +292,7 @@ Status RunConfig::validate(const std::vector<int>& cores) const {
 }
 
 Status check_run(const RunConfig& config, const SourceProbe& source) {
+  EF_RETURN_IF_ERROR(check_out_folder(config.run, config.output));
   if (!config.labels.final_out.empty() && source.live)
     return error(ErrorCode::kInvalidArgument, "--labels-final-out reads the source a second time after the run; " +
                                                   config.run.source +

@@ -13,6 +13,7 @@
 //                semantic::DenseCrfOptions      iterations
 //   pipeline     PipelineOptions                threads, prepared_slots, capture_slots, *_cpu
 //   memory       MemoryOptions                  budget_mb
+//   output       OutputOptions                  sync_seconds, stats_seconds, overwrite
 //   gpio         GpioLineConfig (led_, button_), chip, line, active_low; debounce_ms, optional
 //                GpioOptions
 //
@@ -103,6 +104,16 @@ struct PipelineOptions {
   int slots() const { return threads == 1 ? 1 : prepared_slots; }
 };
 
+// How the run's outputs reach the disk so that nothing accepted is lost (pipeline/run_outputs.h).
+struct OutputOptions {
+  double sync_seconds = 1;   // trajectory.txt synced at most this long after a line, s; 0 = every line
+  double stats_seconds = 5;  // stats.json rewritten (state "running") this often, s; 0 = at start and end only
+  bool overwrite = false;    // replace an earlier run's outputs in `out`; false = such a folder is refused
+
+  static const opt::Table<OutputOptions>& table();
+  Status validate() const;
+};
+
 // The fixed memory of a run (pipeline/memory_plan.h).
 struct MemoryOptions {
   int64_t budget_mb = 256;  // a run refuses to start when its memory plan exceeds this, MB (10^6 bytes)
@@ -120,6 +131,7 @@ struct RunConfig {
   semantic::DenseCrfOptions dense_crf;      // its capacity and lattice come from the pool (crf_options_for_run)
   PipelineOptions pipeline;
   MemoryOptions memory;
+  OutputOptions output;
   GpioOptions gpio;                         // front panel: status LED, start/stop button
 
   // Ok, or kInvalidArgument naming the key(s) and the value(s). `cores`: the cores this process may
@@ -134,8 +146,9 @@ struct RunConfig {
   std::string describe() const;
 };
 
-// The checks of the source against the configuration: a live camera cannot be read twice
-// (labels.final_out). With validate() and the memory plan, what `run` and `plan` check.
+// The checks of the source and the output folder against the configuration: a live camera cannot
+// be read twice (labels.final_out); a folder that holds a run is refused unless output.overwrite
+// (pipeline/run_folder.h). With validate() and the memory plan, what `run` and `plan` check.
 Status check_run(const RunConfig& config, const SourceProbe& source);
 
 // The dense CRF's options for a run: config.dense_crf with the pool's capacity and a lattice sized

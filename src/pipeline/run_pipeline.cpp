@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <thread>
 
@@ -9,6 +10,7 @@
 
 #include "io/ply_writer.h"
 #include "io/stats_json.h"
+#include "pipeline/run_folder.h"
 #include "platform/cpu/thread_affinity.h"
 #include "sources/open_source.h"
 
@@ -38,10 +40,6 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   EF_RETURN_IF_ERROR(config.validate());
   EF_RETURN_IF_ERROR(check_run(config, probe_of(source)));
   std::unique_ptr<RunPipeline> p(new RunPipeline(config, source, stats));
-  const std::string& out = config.run.out;
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec) return error(ErrorCode::kIoError, "cannot create output folder '" + out + "': " + ec.message());
 
   const SourceInfo& info = source.info();
   const Intrinsics working = info.intrinsics.scaled_to(config.run.resolution.width, config.run.resolution.height);
@@ -50,8 +48,14 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
     if (!sem.ok()) return sem.take_error();
     p->semantics_ = std::move(*sem);
   }
-  const std::string trajectory_path = (std::filesystem::path(out) / "trajectory.txt").string();
-  auto mapping = MappingStage::create(config.mapping, working, stats, p->semantics_.get(), trajectory_path);
+  // The folder once the model loaded: a run that cannot start leaves no empty run folder behind.
+  auto folder = prepare_out_folder(config.run, config.output, std::time(nullptr));
+  if (!folder.ok()) return folder.take_error();
+  p->out_folder_ = std::move(*folder);
+  const std::filesystem::path out(p->out_folder_);
+  const std::string trajectory_path = (out / "trajectory.txt").string();
+  auto mapping = MappingStage::create(config.mapping, working, stats, p->semantics_.get(), trajectory_path,
+                                      config.output.sync_seconds);
   if (!mapping.ok()) return mapping.take_error();
   p->mapping_ = std::move(*mapping);
   auto front = FrontStage::create(config.run, config.pipeline, source, p->mapping_->slam(), p->semantics_.get());
@@ -80,7 +84,49 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                      stats.add_counter("frames_dropped_overload"), stats.add_counter("surfels_created"),
                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
                      stats.add_counter("surfels_refused"), stats.add_counter("cnn_frames_skipped")};
+
+  // stats.json from the start, so that a run killed at any moment leaves one that says "running".
+  // Its text's room is reserved now (a few kB; 64 kB holds 32 stages and 64 counters).
+  p->stats_json_.reserve(64 * 1024);
+  p->stats_extra_ = {{"width", static_cast<double>(config.run.resolution.width)},
+                     {"height", static_cast<double>(config.run.resolution.height)},
+                     {"threads", static_cast<double>(config.pipeline.threads)},
+                     {"surfels", 0},
+                     {"surfel_capacity", static_cast<double>(p->mapping_->slam().pool().capacity())},
+                     {"surfel_pool_bytes", static_cast<double>(p->mapping_->slam().pool_bytes())},
+                     {"bytes_per_surfel", static_cast<double>(slam::SurfelPool::kBytesPerSurfel)},
+                     {"peak_rss_bytes", 0}};
+  p->stats_file_.open((out / "stats.json").string());
+  EF_RETURN_IF_ERROR(p->write_stats("running", 0, 0.0));
   return p;
+}
+
+void RunPipeline::update_counters() {
+  stats_.set_counter(c_.dropped_overload, front_->dropped_overload());
+  stats_.set_counter(c_.corrupt_dropped, front_->corrupt_dropped());
+  if (cnn_ != nullptr) stats_.set_counter(c_.cnn_skipped, front_->cnn_skipped());
+  const slam::SurfelPoolCounters& pc = mapping_->slam().pool().counters();
+  stats_.set_counter(c_.surfels_created, pc.created);
+  stats_.set_counter(c_.surfels_removed, pc.removed);
+  stats_.set_counter(c_.surfels_evicted, pc.evicted);
+  stats_.set_counter(c_.surfels_refused, pc.refused);
+}
+
+Status RunPipeline::write_stats(const char* state, int64_t frames, double seconds) {
+  stats_extra_[3].value = static_cast<double>(mapping_->slam().pool().size());  // "surfels"
+  stats_extra_[7].value = peak_rss_bytes();                                       // "peak_rss_bytes"
+  write_stats_object(stats_json_, stats_, static_cast<uint64_t>(frames), seconds, stats_extra_, state);
+  return stats_file_.write(stats_json_.str());
+}
+
+Status RunPipeline::maybe_write_stats() {
+  if (config_.output.stats_seconds <= 0) return Status::success();
+  const auto now = std::chrono::steady_clock::now();
+  if (now < next_stats_) return Status::success();
+  next_stats_ = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double>(config_.output.stats_seconds));
+  update_counters();
+  return write_stats("running", mapping_->frames(), std::chrono::duration<double>(now - start_).count());
 }
 
 RunPipeline::~RunPipeline() = default;
@@ -134,6 +180,9 @@ void RunPipeline::front_loop() {
 RunOutcome RunPipeline::run(RunObserver& observer) {
   RunOutcome outcome;
   const auto start = std::chrono::steady_clock::now();
+  start_ = start;
+  next_stats_ = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(config_.output.stats_seconds));
   pin_current_thread_or_warn(config_.pipeline.mapping_cpu, "mapping");
   front_->start_capture();
   StageRing<PreparedFrame>& ring = *ring_;
@@ -159,6 +208,11 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
     const bool more = consume(*slot, observer, outcome);
     ring.release(kMapping);
     if (!more) break;
+    // A stats.json that cannot be written (a full disk) ends the run like any output's failure.
+    if (Status s = maybe_write_stats(); !s.ok()) {
+      outcome.error = s.error();
+      break;
+    }
   }
   // Ended (the end slot, or an error): the camera stops, and threads still waiting or working on
   // later slots give up. The CNN's results for mapped frames are still fused.
@@ -170,23 +224,16 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
       if (Status s = mapping_->drain_cnn(); !s.ok()) outcome.error = s.error();
     }
     cnn_->close();
-    stats_.set_counter(c_.cnn_skipped, front_->cnn_skipped());
   }
   outcome.frames = mapping_->frames();
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  stats_.set_counter(c_.dropped_overload, front_->dropped_overload());
-  stats_.set_counter(c_.corrupt_dropped, front_->corrupt_dropped());
-  const slam::SurfelPoolCounters& pc = mapping_->slam().pool().counters();
-  stats_.set_counter(c_.surfels_created, pc.created);
-  stats_.set_counter(c_.surfels_removed, pc.removed);
-  stats_.set_counter(c_.surfels_evicted, pc.evicted);
-  stats_.set_counter(c_.surfels_refused, pc.refused);
+  update_counters();
   return outcome;
 }
 
 OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   OutputFiles out;
-  const std::filesystem::path dir(config_.run.out);
+  const std::filesystem::path dir(out_folder_);
   out.trajectory = (dir / "trajectory.txt").string();
   out.map = (dir / "map.ply").string();
   out.stats = (dir / "stats.json").string();
@@ -205,27 +252,20 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
     if (Status s = write_surfel_ply(out.map, cloud, comment); !s.ok()) out.errors.push_back(s.error());
     else out.wrote_map = true;
   }
-  const std::vector<StatsExtraField> extra = {
-      {"width", static_cast<double>(config_.run.resolution.width)},
-      {"height", static_cast<double>(config_.run.resolution.height)},
-      {"threads", static_cast<double>(config_.pipeline.threads)},
-      {"surfels", static_cast<double>(slam.pool().size())},
-      {"surfel_capacity", static_cast<double>(slam.pool().capacity())},
-      {"surfel_pool_bytes", static_cast<double>(slam.pool_bytes())},
-      {"bytes_per_surfel", static_cast<double>(slam::SurfelPool::kBytesPerSurfel)},
-      {"peak_rss_bytes", peak_rss_bytes()}};
-  if (Status s = write_stats_json(out.stats, stats_, static_cast<uint64_t>(outcome.frames), outcome.seconds, extra);
-      !s.ok())
-    out.errors.push_back(s.error());
-  else
-    out.wrote_stats = true;
+  // Last, so that it tells how the run and its outputs ended.
+  std::string state = "finished";
+  if (outcome.error) state = "failed: " + outcome.error->message;
+  else if (!out.errors.empty()) state = "failed: " + out.errors.front().message;
+  else if (outcome.stopped || outcome.camera_lost) state = "stopped";
+  if (Status s = write_stats(state.c_str(), outcome.frames, outcome.seconds); !s.ok()) out.errors.push_back(s.error());
+  else out.wrote_stats = true;
   return out;
 }
 
 Result<FinalLabelCounts> RunPipeline::render_final_labels(FrameSource& replay) {
   if (semantics_ == nullptr)
     return error(ErrorCode::kInvalidArgument, "--labels-final-out needs labels: drop --no-labels");
-  const std::string trajectory = (std::filesystem::path(config_.run.out) / "trajectory.txt").string();
+  const std::string trajectory = (std::filesystem::path(out_folder_) / "trajectory.txt").string();
   return pipeline::render_final_labels(config_.run, config_.labels, replay, trajectory, mapping_->slam(), *semantics_);
 }
 

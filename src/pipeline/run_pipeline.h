@@ -12,6 +12,14 @@
 //                    then the observer (LED, progress line) and its stop requests (signals, the button)
 //   outputs          write_outputs(): trajectory closed, final CRF, map.ply, stats.json
 //
+// Nothing accepted is lost (issue 29): the folder is a new run's (pipeline/run_folder.h); the
+// trajectory gets a whole line per frame, synced every output.sync_seconds; stats.json is written
+// at the start and rewritten every output.stats_seconds with "state": "running", and at the end with
+// "finished" (the source ended or max_frames), "stopped" (a stop request, a camera that vanished) or
+// "failed: <reason>" (the run's error or an output's); map.ply and stats.json are whole or absent
+// (io/durable_file.h). A killed run leaves its trajectory up to the last line, and a stats.json
+// that parses and says "running".
+//
 // Front and mapping share a StageRing (core/stage_ring.h) of pipeline.prepared_slots PreparedFrame
 // slots, which every frame passes through in order; a step waits for its predecessor, nothing is
 // dropped after capture. pipeline.threads says how the steps map onto threads:
@@ -34,6 +42,7 @@
 // frame (tests/pipeline/test_pipeline.cpp counts it over 3000 frames).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -46,7 +55,9 @@
 #include "pipeline/cnn_worker.h"
 #include "pipeline/final_labels.h"
 #include "pipeline/front_stage.h"
+#include "io/durable_file.h"
 #include "io/frame_source.h"
+#include "io/stats_json.h"
 #include "pipeline/mapping_stage.h"
 #include "pipeline/run_config.h"
 #include "pipeline/run_semantics.h"
@@ -110,6 +121,8 @@ class RunPipeline {
   std::size_t slot_bytes() const { return slot_bytes_; }
   // Bytes of the CNN's jobs (0 without labels).
   std::size_t cnn_job_bytes() const { return cnn_ != nullptr ? cnn_->bytes() : 0; }
+  // The run's folder: run.out with "{time}" replaced (pipeline/run_folder.h).
+  const std::string& out_folder() const { return out_folder_; }
 
  private:
   RunPipeline(const RunConfig& config, FrameSource& source, StageStats& stats)
@@ -120,6 +133,13 @@ class RunPipeline {
   void check_stop(RunObserver& observer, RunOutcome& outcome);
   // The loop of a thread that runs the front step (and the segment step when `with_segment`).
   void front_loop();
+  // The counters kept by the parts (pool, front stage, CNN) copied into StageStats.
+  void update_counters();
+  // stats.json rewritten whole with `state`; allocates nothing once created (the JSON text's
+  // capacity is reserved). On the mapping thread, between frames (StageStats' summaries).
+  Status write_stats(const char* state, int64_t frames, double seconds);
+  // A periodic rewrite when output.stats_seconds have passed.
+  Status maybe_write_stats();
 
   const RunConfig config_;
   FrameSource& source_;
@@ -131,6 +151,11 @@ class RunPipeline {
   std::unique_ptr<StageRing<PreparedFrame>> ring_;  // front -> mapping
   std::size_t slot_bytes_ = 0;
   bool stop_sent_ = false;
+  std::string out_folder_;
+  RewrittenFile stats_file_;
+  JsonWriter stats_json_;
+  std::vector<StatsExtraField> stats_extra_;
+  std::chrono::steady_clock::time_point start_, next_stats_;
   struct CounterIds {
     int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,
         surfels_refused, cnn_skipped;

@@ -40,6 +40,7 @@ void check_stops_cleanly(int sig, const char* name) {
   const std::string stats = read_file(dir / "stats.json");
   EXPECT_NE(stats.find("\"frames\":" + std::to_string(n) + ","), std::string::npos) << stats;
   EXPECT_NE(stats.find("\"stopped_by_signal\":1"), std::string::npos) << stats;
+  EXPECT_EQ(stats.rfind("{\"state\":\"stopped\",", 0), 0u) << stats;
   auto map = read_surfel_ply((dir / "map.ply").string());
   ASSERT_TRUE(map.ok()) << to_string(map.error());
   if (n > 0) {

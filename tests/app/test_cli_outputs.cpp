@@ -1,0 +1,203 @@
+// Never lose a run (issue 29): `edgefusion run` killed with SIGKILL, on a full disk, and into a
+// folder that holds an earlier run. What the robot accepted before the kill is on disk, readable.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "app/cli_test_util.h"
+#include "io/ply_writer.h"
+#include "io/trajectory_io.h"
+#include "test_support.h"
+
+namespace ef::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The number after "key": in a stats.json text (-1 when absent).
+double json_number(const std::string& text, const std::string& key) {
+  const auto at = text.find("\"" + key + "\":");
+  if (at == std::string::npos) return -1;
+  return std::stod(text.substr(at + key.size() + 3));
+}
+
+// The "state" of a stats.json text ("" when absent).
+std::string json_state(const std::string& text) {
+  const std::string key = "{\"state\":\"";
+  if (text.rfind(key, 0) != 0) return "";
+  const auto end = text.find('"', key.size());
+  return end == std::string::npos ? "" : text.substr(key.size(), end - key.size());
+}
+
+// A stats.json whole: one object, ending with its newline.
+void expect_whole_stats(const std::string& text) {
+  ASSERT_FALSE(text.empty());
+  EXPECT_EQ(text.front(), '{');
+  EXPECT_EQ(text.substr(text.size() - 2), "}\n") << text;
+}
+
+TEST(CliOutputs, ARunNeverOverwritesAnEarlierRun) {
+  const auto dir = test::scratch_dir("cli-outputs-refuse");
+  const std::string out = (dir / "run").string();
+  const std::vector<std::string> run = {"run", "--source", "synthetic:?frames=4&size=160x120", "--resolution",
+                                        "160x120", "--no-labels", "--quiet", "--out", out};
+  auto r = cli(run);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string map_a = read_file(fs::path(out) / "map.ply");
+
+  // The second run into the same folder is refused before anything is touched, and so is its plan.
+  r = cli(run);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("holds an earlier run (trajectory.txt, map.ply, stats.json)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;
+  EXPECT_EQ(read_file(fs::path(out) / "map.ply"), map_a);
+  r = cli({"plan", "--source", "synthetic:?frames=4&size=160x120", "--out", out});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("holds an earlier run"), std::string::npos) << r.err;
+
+  // --overwrite replaces the run whole: the earlier outputs and a killed run's leftovers go first.
+  std::FILE* leftover = std::fopen((fs::path(out) / "map.ply.partial").c_str(), "w");
+  ASSERT_NE(leftover, nullptr);
+  std::fclose(leftover);
+  auto overwrite = run;
+  overwrite[2] = "synthetic:?frames=2&size=160x120";
+  overwrite.push_back("--overwrite");
+  r = cli(overwrite);
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto traj = read_tum_trajectory((fs::path(out) / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok());
+  EXPECT_EQ(traj->poses.size(), 2u);
+  EXPECT_EQ(json_number(read_file(fs::path(out) / "stats.json"), "frames"), 2);
+  EXPECT_FALSE(fs::exists(fs::path(out) / "map.ply.partial"));
+  EXPECT_FALSE(fs::exists(fs::path(out) / ".stats.json.next"));  // the reserve goes with the run
+}
+
+TEST(CliOutputs, TimeInTheFolderGivesEachRunItsOwnAndALatestLink) {
+  const auto dir = test::scratch_dir("cli-outputs-time");
+  const std::vector<std::string> run = {"run", "--source", "synthetic:?frames=2&size=160x120", "--resolution",
+                                        "160x120", "--no-labels", "--quiet", "--out", (dir / "runs/{time}").string()};
+  for (int i = 0; i < 2; ++i) {
+    auto r = cli(run);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("run folder " + (dir / "runs").string() + "/"), std::string::npos) << r.err;
+  }
+  std::vector<std::string> folders;
+  for (const auto& e : fs::directory_iterator(dir / "runs"))
+    if (!e.is_symlink()) folders.push_back(e.path().filename().string());
+  std::sort(folders.begin(), folders.end());
+  ASSERT_EQ(folders.size(), 2u);
+  EXPECT_EQ(folders[0].size(), 15u) << folders[0];  // YYYYmmdd-HHMMSS
+  EXPECT_TRUE(fs::is_symlink(dir / "runs" / "latest"));
+  EXPECT_EQ(fs::read_symlink(dir / "runs" / "latest").string(), folders[1]);  // the newest
+  for (const auto& f : folders) {
+    EXPECT_EQ(json_state(read_file(dir / "runs" / f / "stats.json")), "finished");
+    EXPECT_TRUE(fs::exists(dir / "runs" / f / "map.ply"));
+  }
+}
+
+// SIGKILL at a moment of the run: the trajectory has a whole line per mapped frame up to the kill,
+// stats.json parses and says "running", and no output is half written.
+TEST(CliOutputs, SigkillLeavesAReadableTrajectoryAndRunningStats) {
+  const auto dir = test::scratch_dir("cli-outputs-kill");
+  const fs::path out = dir / "run";
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // The run in a child process of its own, killed below: its exit is never reached.
+    std::freopen("/dev/null", "w", stdout);
+    std::freopen("/dev/null", "w", stderr);
+    const auto r = cli({"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution", "160x120",
+                        "--no-labels", "--quiet", "--stats-seconds", "0.2", "--sync-seconds", "0.5", "--out",
+                        out.string()});
+    ::_exit(r.code == 0 ? 100 : 101);
+  }
+  // Kill once stats.json has been rewritten during the run with some frames mapped.
+  double frames_in_stats = 0;
+  for (int i = 0; i < 3000 && frames_in_stats < 20; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const std::string text = read_file(out / "stats.json");
+    if (!text.empty()) frames_in_stats = json_number(text, "frames");
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill (status " << status << ")";
+  ASSERT_GE(frames_in_stats, 20) << "stats.json was not rewritten during the run";
+
+  const std::string stats = read_file(out / "stats.json");
+  expect_whole_stats(stats);
+  EXPECT_EQ(json_state(stats), "running");
+  const double frames = json_number(stats, "frames");
+  auto traj = read_tum_trajectory((out / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok()) << to_string(traj.error());
+  EXPECT_EQ(traj->cut_line, 0);
+  // Every frame mapped before the last stats.json has its line (and later ones may too).
+  EXPECT_GE(static_cast<double>(traj->poses.size()), frames);
+  EXPECT_FALSE(fs::exists(out / "map.ply"));  // written at the end only: absent, never half
+  EXPECT_FALSE(fs::exists(out / "map.ply.partial"));
+}
+
+// A full disk: the run ends with an error naming the file and the reason, stats.json says
+// "failed: ..." (written into its reserved blocks), and nothing is half written.
+TEST(CliOutputs, AFullDiskEndsTheRunWithFailedStatsAndWholeFiles) {
+  test::SmallDisk disk("cli-outputs-full", 512 * 1024);
+  EF_SKIP_WITHOUT_SMALL_DISK(disk);
+  // The map (40 bytes a surfel, some 30,000 surfels: 1.2 MB) does not fit; the trajectory does.
+  const fs::path out = disk.dir() / "run";
+  auto r = cli({"run", "--source", "synthetic:?frames=12&size=160x120", "--resolution", "160x120", "--no-labels",
+                "--quiet", "--out", out.string()});
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("map.ply"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
+  const std::string stats = read_file(out / "stats.json");
+  expect_whole_stats(stats);
+  EXPECT_EQ(json_state(stats).rfind("failed: ", 0), 0u) << stats;
+  EXPECT_NE(json_state(stats).find("map.ply"), std::string::npos) << stats;
+  EXPECT_FALSE(fs::exists(out / "map.ply"));
+  EXPECT_FALSE(fs::exists(out / "map.ply.partial"));
+  auto traj = read_tum_trajectory((out / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok()) << to_string(traj.error());
+  EXPECT_EQ(traj->poses.size(), 12u);
+}
+
+// The disk fills while the trajectory is written: the run stops at that frame with the error,
+// every line in the file is whole, and stats.json still says why.
+TEST(CliOutputs, ATrajectoryThatFillsTheDiskStopsTheRunWithWholeLines) {
+  test::SmallDisk disk("cli-outputs-full-traj", 1024 * 1024);
+  EF_SKIP_WITHOUT_SMALL_DISK(disk);
+  // Leave about 100 kB: stats.json and its 64 kB reserve, and some hundred trajectory lines.
+  {
+    std::FILE* f = std::fopen((disk.dir() / "filler").c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    const std::string block(4096, 'x');
+    const auto free_bytes = [&] { return fs::space(disk.dir()).available; };
+    while (free_bytes() > 100 * 1024 && std::fwrite(block.data(), 1, block.size(), f) == block.size()) std::fflush(f);
+    std::fclose(f);
+  }
+  const fs::path out = disk.dir() / "run";
+  auto r = cli({"run", "--source", "synthetic:?frames=3000&size=160x120", "--resolution", "160x120", "--no-labels",
+                "--quiet", "--out", out.string()});
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("trajectory.txt: write failed after"), std::string::npos) << r.err;
+  const std::string stats = read_file(out / "stats.json");
+  expect_whole_stats(stats);
+  EXPECT_NE(json_state(stats).find("trajectory.txt: write failed"), std::string::npos) << stats;
+  auto traj = read_tum_trajectory((out / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok()) << to_string(traj.error());
+  EXPECT_EQ(traj->cut_line, 0);
+  EXPECT_GT(traj->poses.size(), 100u);
+  EXPECT_LT(traj->poses.size(), 3000u);
+  EXPECT_FALSE(fs::exists(out / "map.ply.partial"));
+}
+
+}  // namespace
+}  // namespace ef::app
