@@ -69,4 +69,8 @@ int report_error(const char* command, const Error& err, int code) {
   return code;
 }
 
+void report_warning(const char* command, const std::string& text) {
+  if (!text.empty()) std::fprintf(stderr, "%s: warning: %s\n", command, text.c_str());
+}
+
 }  // namespace ef::app

@@ -1,5 +1,6 @@
 // `edgefusion convert`: any source to an ElasticFusion .klg log or a TUM RGB-D folder. This is how
 // synthetic sequences are exported for training and evaluation.
+#include <csignal>
 #include <cstdio>
 #include <string>
 
@@ -11,6 +12,7 @@
 #include "io/tum_writer.h"
 #include "core/progress.h"
 #include "sources/open_source.h"
+#include "stop_signal.h"
 
 namespace ef::app {
 
@@ -45,7 +47,11 @@ int cmd_convert(int argc, char** argv) {
                                   "int64 timestamp in microseconds, zlib depth in millimetres, JPEG colour) or as a\n"
                                   "TUM RGB-D folder (rgb/, depth/ at 5000 per metre, rgb.txt, depth.txt,\n"
                                   "groundtruth.txt when poses exist, labels/ when the source has labels,\n"
-                                  "intrinsics.txt).\n\nSources: " + std::string(source_uri_help()),
+                                  "intrinsics.txt).\n"
+                                  "SIGINT / SIGTERM stop after the frame in hand and finish the target (exit 0).\n"
+                                  "A target cut harder (kill -9, power) still reads back: each frame's data is\n"
+                                  "written whole before the .klg frame count or the TUM lists name it.\n\n"
+                                  "Sources: " + std::string(source_uri_help()),
                                   kConvertOptions).c_str());
     return 0;
   }
@@ -66,6 +72,7 @@ int cmd_convert(int argc, char** argv) {
 
   auto source_or = open_source(args->get("--source"));
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
+  report_warning(kCmd, (*source_or)->info().warning);
   FrameSource& source = **source_or;
   const SourceInfo& info = source.info();
 
@@ -95,7 +102,15 @@ int cmd_convert(int argc, char** argv) {
 
   int64_t frames = 0;
   int exit_code = 0;
+  // SIGINT / SIGTERM: stop after the frame in hand and finish the target (as `run` does), exit 0.
+  StopSignalScope stop_signal;
   while (*max_frames < 0 || frames < *max_frames) {
+    if (stop_signal.stop_requested()) {
+      std::fprintf(stderr, "\n%s: %s received after %lld frames: stopping, finishing %s\n", kCmd,
+                   stop_signal.signal_number() == SIGINT ? "SIGINT" : "SIGTERM", static_cast<long long>(frames),
+                   to.c_str());
+      break;
+    }
     auto got = source.next(input);
     if (!got.ok()) {
       report_error(kCmd, got.error(), 1);

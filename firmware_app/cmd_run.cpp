@@ -155,6 +155,7 @@ int cmd_run(int argc, char** argv) {
 
   auto source_or = open_source(config.run.source);
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
+  report_warning(kCmd, (*source_or)->info().warning);
   FrameSource& source = **source_or;
   const SourceInfo& info = source.info();
   // The source against the configuration, the model and the memory plan, before anything large

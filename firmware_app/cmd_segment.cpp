@@ -143,6 +143,7 @@ int cmd_segment(int argc, char** argv) {
 
   auto source_or = open_source(args->get("--source"));
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
+  report_warning(kCmd, (*source_or)->info().warning);
   FrameSource& source = **source_or;
   const SourceInfo& info = source.info();
 

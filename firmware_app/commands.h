@@ -2,6 +2,8 @@
 // the exit code: 0 success, 1 failure while running, 2 usage error.
 #pragma once
 
+#include <string>
+
 #include "core/result.h"
 
 namespace ef::app {
@@ -18,5 +20,8 @@ const char* source_uri_help_text();
 
 // Prints "edgefusion <command>: <error>" to stderr and returns `code`.
 int report_error(const char* command, const Error& err, int code);
+// Prints "edgefusion <command>: warning: <text>" to stderr when `text` is not empty (a source's
+// SourceInfo::warning: what it recovered from).
+void report_warning(const char* command, const std::string& text);
 
 }  // namespace ef::app

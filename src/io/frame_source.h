@@ -23,6 +23,8 @@ struct SourceInfo {
   bool has_labels = false;    // frames carry a class-id image
   bool has_color = true;      // frames carry colour (a .klg may have none)
   bool live = false;          // a camera: must never be blocked by processing
+  std::string warning;        // what opening recovered from (a recording cut while written), for the
+                              // user; empty when nothing
 };
 
 class FrameSource {

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 
+#include <unistd.h>
 #include <zlib.h>
 
 #include "io/image_codec.h"
@@ -246,14 +247,19 @@ Result<std::unique_ptr<FrameSource>> open_klg_input(std::unique_ptr<ByteInput> i
   frames.reserve(std::size_t(std::min<uint64_t>(uint64_t(count), (file_size - 4) / kFrameHeaderBytes)));
   uint64_t offset = 4;
   bool any_color = false;
-  for (int32_t i = 0; i < count; ++i) {
+  // Every whole frame in the file, counted or not: a recording cut while written (a kill, a power
+  // cut) has fewer frames than its count says, or more when the count was not yet updated. A part
+  // frame at the end stops the walk; anything else malformed is an error.
+  while (file_size - offset >= kFrameHeaderBytes) {
+    const int64_t i = static_cast<int64_t>(frames.size());
     const auto frame_at = [&](uint64_t off) {
       return "klg file '" + name + "', frame " + std::to_string(i) + " at byte " + std::to_string(off) + ": ";
     };
-    if (file_size - offset < kFrameHeaderBytes)
-      return error(ErrorCode::kCorruptData,
-                   frame_at(offset) + "truncated frame header (the file ends at byte " + std::to_string(file_size) +
-                       "; the frame count says " + std::to_string(count) + " frames, " + std::to_string(i) + " found)");
+    const auto beyond_count = [&] {
+      return error(ErrorCode::kCorruptData, at(offset) + std::to_string(file_size - offset) +
+                                                " bytes after the last of " + std::to_string(count) +
+                                                " frames that are not frames (wrong frame count or size?)");
+    };
     if (!input->read_at(offset, hdr, kFrameHeaderBytes))
       return error(ErrorCode::kIoError, frame_at(offset) + "cannot read the frame header");
     KlgSource::FrameIndex f;
@@ -261,38 +267,55 @@ Result<std::unique_ptr<FrameSource>> open_klg_input(std::unique_ptr<ByteInput> i
     f.timestamp_us = load_le64(hdr);
     f.depth_size = load_le32(hdr + 8);
     f.image_size = load_le32(hdr + 12);
-    if (f.depth_size <= 0 || uint64_t(f.depth_size) > max_depth)
+    if (f.depth_size <= 0 || uint64_t(f.depth_size) > max_depth) {
+      if (i >= count && count > 0) return beyond_count();
       return error(ErrorCode::kCorruptData, frame_at(offset) + "depth size " + std::to_string(f.depth_size) +
                                                 " not in 1.." + std::to_string(max_depth) + " (" + size_text +
                                                 "x2 bytes; is the size right? pass ?size=WxH)");
-    if (f.image_size < 0 || uint64_t(f.image_size) > max_color)
+    }
+    if (f.image_size < 0 || uint64_t(f.image_size) > max_color) {
+      if (i >= count && count > 0) return beyond_count();
       return error(ErrorCode::kCorruptData, frame_at(offset) + "image size " + std::to_string(f.image_size) +
                                                 " not in 0.." + std::to_string(max_color) + " (" + size_text +
                                                 "x3 bytes; is the size right? pass ?size=WxH)");
-    const uint64_t payload = uint64_t(f.depth_size) + uint64_t(f.image_size);
-    if (file_size - offset - kFrameHeaderBytes < payload)
-      return error(ErrorCode::kCorruptData, frame_at(offset) + "truncated: " + std::to_string(payload) +
-                                                " bytes of depth and colour run past the end of the file at byte " +
-                                                std::to_string(file_size));
-    if (!frames.empty() && f.timestamp_us < frames.back().timestamp_us)
+    }
+    if (!frames.empty() && f.timestamp_us < frames.back().timestamp_us) {
+      if (i >= count && count > 0) return beyond_count();
       return error(ErrorCode::kCorruptData, frame_at(offset) + "timestamp " + std::to_string(f.timestamp_us) +
                                                 " us is before the previous frame's " +
                                                 std::to_string(frames.back().timestamp_us) + " us");
+    }
+    const uint64_t payload = uint64_t(f.depth_size) + uint64_t(f.image_size);
+    if (file_size - offset - kFrameHeaderBytes < payload) {
+      if (!frames.empty()) break;  // a part frame at the end: cut
+      return error(ErrorCode::kCorruptData, frame_at(offset) + "truncated: " + std::to_string(payload) +
+                                                " bytes of depth and colour run past the end of the file at byte " +
+                                                std::to_string(file_size) + " (no whole frame to read)");
+    }
     any_color = any_color || f.image_size > 0;
     frames.push_back(f);
     offset += kFrameHeaderBytes + payload;
   }
-  if (offset != file_size)
-    return error(ErrorCode::kCorruptData, at(offset) + std::to_string(file_size - offset) +
-                                              " bytes after the last of " + std::to_string(count) +
-                                              " frames (wrong frame count or size?)");
+  const int64_t found = static_cast<int64_t>(frames.size());
+  const uint64_t tail = file_size - offset;  // bytes of a part frame
+  std::string warning;
+  if (found == 0 && (count > 0 || tail > 0))
+    return error(ErrorCode::kCorruptData,
+                 at(offset) + "truncated: the frame count says " + std::to_string(count) +
+                     " frames and the file ends at byte " + std::to_string(file_size) + " before a whole one");
+  if (found != count || tail > 0) {
+    warning = "klg file '" + name + "' was cut while written: its frame count says " + std::to_string(count) + ", " +
+              std::to_string(found) + " whole frame" + (found == 1 ? " is" : "s are") + " read";
+    if (tail > 0) warning += ", and the last " + std::to_string(tail) + " bytes (a part frame) are left out";
+  }
 
   SourceInfo info;
   info.uri = uri ? "klg:" + uri->path : "klg:" + name;
   info.intrinsics = Intrinsics{525.0f, 525.0f, 319.5f, 239.5f, 640, 480};
   if (width != 640 || height != 480) info.intrinsics = info.intrinsics.scaled_to(width, height);
   if (uri) EF_RETURN_IF_ERROR(text::apply_intrinsics_overrides(*uri, info.intrinsics));
-  info.frame_count = count;
+  info.frame_count = found;
+  info.warning = warning;
   info.nominal_fps = 30;
   if (frames.size() > 1) {
     // In double: fuzzed timestamps span more than int64 can hold.
@@ -368,11 +391,12 @@ Status KlgWriter::open(const std::string& path, int width, int height, const Klg
   height_ = height;
   options_ = options;
   frames_ = 0;
+  end_offset_ = 4;
   const std::size_t px = std::size_t(width) * std::size_t(height);
   depth_raw_.resize(px * 2);
   depth_zlib_.resize(compressBound(static_cast<uLong>(px * 2)));
   uint8_t count[4];
-  store_le32(count, 0);  // patched by close()
+  store_le32(count, 0);  // patched after each frame
   if (std::fwrite(count, 1, 4, file_) != 4) return io_error("write failed");
   return Status();
 }
@@ -433,21 +457,34 @@ Status KlgWriter::write(const Frame& frame) {
   store_le32(hdr + 12, static_cast<int32_t>(color_size));
   if (std::fwrite(hdr, 1, sizeof(hdr), file_) != sizeof(hdr) ||
       std::fwrite(depth_bytes, 1, depth_size, file_) != depth_size ||
-      (color_size && std::fwrite(color_bytes, 1, color_size, file_) != color_size))
-    return io_error("write failed at frame " + std::to_string(frames_) + " (disk full?)");
+      (color_size && std::fwrite(color_bytes, 1, color_size, file_) != color_size) || std::fflush(file_) != 0) {
+    const int e = errno;
+    // A part of the frame may have gone out: cut the file back to its whole frames.
+    std::clearerr(file_);
+    if (::ftruncate(fileno(file_), static_cast<off_t>(end_offset_)) == 0) fseeko(file_, static_cast<off_t>(end_offset_), SEEK_SET);
+    return io_error("write failed at frame " + std::to_string(frames_) + ": " + std::strerror(e));
+  }
   ++frames_;
+  end_offset_ += sizeof(hdr) + depth_size + color_size;
+  // The frame is in the file (flushed above) before the count says so: a recording killed at any
+  // moment reads back with every whole frame (the reader also recovers one whose count lags).
+  if (!patch_count()) return io_error("cannot update the frame count: " + std::string(std::strerror(errno)));
   return Status();
+}
+
+bool KlgWriter::patch_count() {
+  uint8_t count[4];
+  store_le32(count, static_cast<int32_t>(frames_));
+  return ::pwrite(fileno(file_), count, 4, 0) == 4;
 }
 
 Status KlgWriter::close() {
   if (!file_) return Status();
-  std::FILE* f = file_;
+  const bool ok = std::fflush(file_) == 0 && patch_count() && ::fsync(fileno(file_)) == 0;
+  const int e = errno;
+  const bool closed = std::fclose(file_) == 0;
   file_ = nullptr;
-  uint8_t count[4];
-  store_le32(count, static_cast<int32_t>(frames_));
-  const bool ok = std::fflush(f) == 0 && fseeko(f, 0, SEEK_SET) == 0 && std::fwrite(count, 1, 4, f) == 4;
-  const bool closed = std::fclose(f) == 0;
-  if (!ok || !closed) return io_error("cannot finish the file (frame count not written)");
+  if (!ok || !closed) return io_error(std::string("cannot finish the file: ") + std::strerror(e));
   return Status();
 }
 

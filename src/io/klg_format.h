@@ -7,9 +7,13 @@
 // The resolution is not stored: the URI says it (`klg:FILE?size=WxH`, default 640x480).
 //
 // Reader decisions:
-//   * Opening walks every frame header, so a wrong frame count, truncation, size fields outside
-//     1..W*H*2 (depth) or 0..W*H*3 (colour), decreasing timestamps and bytes after the last frame
-//     are reported at open, naming the file, the frame index and its byte offset.
+//   * Opening walks every frame header, so size fields outside 1..W*H*2 (depth) or 0..W*H*3
+//     (colour), decreasing timestamps and bytes after the counted frames that are not frames are
+//     reported at open, naming the file, the frame index and its byte offset.
+//   * A recording cut while written (a kill, a power cut, a full disk) is read up to its last whole
+//     frame: a count larger than the frames present (or 0, a count never written) and a part frame
+//     at the end are not errors but SourceInfo::warning, which says how many frames are read and
+//     how many bytes are left out. A file without a single whole frame is an error.
 //   * Depth 0 = invalid; every other value is valid (millimetres -> metres).
 //   * Intrinsics default to fx = fy = 525, cx = 319.5, cy = 239.5 at 640x480 (ElasticFusion's
 //     defaults), scaled to `size` (Intrinsics::scaled_to) for other sizes; fx, fy, cx, cy query
@@ -55,8 +59,11 @@ class KlgWriter {
   ~KlgWriter();  // closes (errors ignored: call close() to see them)
 
   Status open(const std::string& path, int width, int height, const KlgWriteOptions& options = {});
+  // Appends a frame and then updates the frame count in the header, so that a file cut at any
+  // moment holds whole frames and (nearly always) the right count. A failed write (a full disk)
+  // cuts the file back to its whole frames and names the reason.
   Status write(const Frame& frame);
-  // Patches the frame count into the header and closes the file.
+  // Syncs the file to the disk and closes it.
   Status close();
 
   int64_t frames_written() const { return frames_; }
@@ -64,12 +71,14 @@ class KlgWriter {
 
  private:
   Error io_error(const std::string& what) const;
+  bool patch_count();  // the frame count at byte 0
 
   std::FILE* file_ = nullptr;
   std::string path_;
   int width_ = 0, height_ = 0;
   KlgWriteOptions options_;
   int64_t frames_ = 0;
+  uint64_t end_offset_ = 0;  // bytes of the count and the whole frames
   std::vector<uint8_t> depth_raw_;   // W*H*2 little-endian millimetres, reused
   std::vector<uint8_t> depth_zlib_;  // compressBound(W*H*2), reused
   std::string jpeg_;                 // encoded colour, reused

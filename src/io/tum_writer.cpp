@@ -5,6 +5,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include <unistd.h>
+
 #include "io/image_codec.h"
 
 namespace ef {
@@ -30,8 +32,15 @@ Status TumWriter::write_line(std::FILE*& f, const char* name, const std::string&
     else
       std::fprintf(f, "# %s images\n# timestamp filename\n", std::strcmp(name, "rgb.txt") == 0 ? "color" : "depth");
   }
-  if (std::fputs(line.c_str(), f) < 0)
-    return error(ErrorCode::kIoError, "TUM folder '" + dir_ + "': cannot write " + name + " (disk full?)");
+  // Each line reaches the file with its frame (flushed), whole: a line that did not fit (a full disk)
+  // is cut off again, so a converted folder killed at any moment lists whole frames only.
+  const off_t before = ftello(f);
+  if (std::fputs(line.c_str(), f) < 0 || std::fflush(f) != 0) {
+    const int e = errno;
+    std::clearerr(f);
+    if (before >= 0 && ::ftruncate(fileno(f), before) == 0) fseeko(f, before, SEEK_SET);
+    return error(ErrorCode::kIoError, "TUM folder '" + dir_ + "': cannot write " + name + ": " + std::strerror(e));
+  }
   return Status();
 }
 
@@ -125,11 +134,17 @@ Status TumWriter::close() {
   if (!open_) return Status();
   open_ = false;
   bool ok = true;
+  int e = 0;
   for (std::FILE** f : {&rgb_txt_, &depth_txt_, &gt_txt_}) {
-    if (*f) ok = (std::fclose(*f) == 0) && ok;
+    if (*f) {
+      if (std::fflush(*f) != 0 || ::fsync(fileno(*f)) != 0) e = errno;
+      if (std::fclose(*f) != 0 && e == 0) e = errno;
+      ok = ok && e == 0;
+    }
     *f = nullptr;
   }
-  if (!ok) return error(ErrorCode::kIoError, "TUM folder '" + dir_ + "': cannot finish the list files (disk full?)");
+  if (!ok)
+    return error(ErrorCode::kIoError, "TUM folder '" + dir_ + "': cannot finish the list files: " + std::strerror(e));
   return Status();
 }
 

@@ -8,6 +8,8 @@
 //   intrinsics.txt     "fx fy cx cy" when open() got valid intrinsics
 // <stem> is Frame.name, or the timestamp with 6 decimals when the name is empty. Existing files of
 // the same names are overwritten. Timestamps must increase by at least 1 us; stems must be unique.
+// Cut at any moment (issue 29), the folder is readable: each image is whole or absent (renamed into
+// place), and a frame's list lines are written whole, after its images, as the frame arrives.
 #pragma once
 
 #include <cstdint>

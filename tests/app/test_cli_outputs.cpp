@@ -13,8 +13,10 @@
 #include <unistd.h>
 
 #include "app/cli_test_util.h"
+#include "core/frame.h"
 #include "io/ply_writer.h"
 #include "io/trajectory_io.h"
+#include "sources/open_source.h"
 #include "test_support.h"
 
 namespace ef::app {
@@ -197,6 +199,69 @@ TEST(CliOutputs, ATrajectoryThatFillsTheDiskStopsTheRunWithWholeLines) {
   EXPECT_GT(traj->poses.size(), 100u);
   EXPECT_LT(traj->poses.size(), 3000u);
   EXPECT_FALSE(fs::exists(out / "map.ply.partial"));
+}
+
+// `convert` stops on SIGTERM like `run`: the frames so far are a whole recording, exit 0.
+TEST(CliOutputs, ConvertStopsOnSigtermWithAWholeRecording) {
+  const auto dir = test::scratch_dir("cli-outputs-convert-term");
+  const fs::path klg = dir / "cut.klg";
+  std::thread killer([klg] {
+    for (int i = 0; i < 6000 && !fs::exists(klg); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    std::raise(SIGTERM);
+  });
+  const auto r = cli({"convert", "--source", "synthetic:?frames=100000&size=160x120", "--to", "klg:" + klg.string(),
+                      "--quiet"});
+  killer.join();
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("SIGTERM received after"), std::string::npos) << r.err;
+  auto src = open_source("klg:" + klg.string() + "?size=160x120");
+  ASSERT_TRUE(src.ok()) << to_string(src.error());
+  EXPECT_EQ((*src)->info().warning, "");  // whole: its count is right
+  EXPECT_GT((*src)->info().frame_count, 0);
+  EXPECT_LT((*src)->info().frame_count, 100000);
+  EXPECT_NE(r.out.find("converted " + std::to_string((*src)->info().frame_count) + " frames"), std::string::npos)
+      << r.out;
+}
+
+// SIGKILL in the middle of `convert`: the .klg and the TUM folder read back, every frame whole.
+TEST(CliOutputs, ConvertKilledLeavesReadableRecordings) {
+  const auto dir = test::scratch_dir("cli-outputs-convert-kill");
+  for (const std::string to : {"klg:" + (dir / "cut.klg").string(), "tum:" + (dir / "tum").string()}) {
+    const fs::path list = to[0] == 'k' ? dir / "cut.klg" : dir / "tum" / "depth.txt";
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      std::freopen("/dev/null", "w", stdout);
+      std::freopen("/dev/null", "w", stderr);
+      const auto r = cli({"convert", "--source", "synthetic:?frames=100000&size=160x120", "--to", to, "--quiet"});
+      ::_exit(r.code == 0 ? 100 : 101);
+    }
+    // Kill once some frames are written (the file or list has grown past its header).
+    for (int i = 0; i < 3000; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      std::error_code ec;
+      if (fs::exists(list, ec) && fs::file_size(list, ec) > (to[0] == 'k' ? 200'000u : 500u)) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(37));
+    ::kill(child, SIGKILL);
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFSIGNALED(status)) << to << ": ended before the kill (status " << status << ")";
+    auto src = open_source(to[0] == 'k' ? to + "?size=160x120" : to);
+    ASSERT_TRUE(src.ok()) << to << ": " << to_string(src.error());
+    const int64_t n = (*src)->info().frame_count;
+    EXPECT_GT(n, 2) << to;
+    Frame f;
+    int64_t read = 0;
+    while (true) {
+      auto got = (*src)->next(f);
+      ASSERT_TRUE(got.ok()) << to << ", frame " << read << ": " << to_string(got.error());
+      if (!*got) break;
+      ++read;
+    }
+    EXPECT_EQ(read, n) << to;
+  }
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include <zlib.h>
@@ -98,12 +99,66 @@ TEST(KlgReader, TruncatedInFileHeader) {
                     "at byte 0", "truncated");
 }
 
-TEST(KlgReader, TruncatedInFrameHeader) {
+// A recording cut while written: its whole frames are read, and the warning says what was left.
+TEST(KlgReader, CutInAFrameHeaderReadsTheWholeFramesWithAWarning) {
   const std::string f0 = frame_record(0, raw_depth(8, 6, 1000), "");
   std::string path;
   const std::string bytes = with_count(2, f0 + frame_record(1, raw_depth(8, 6, 1000), "").substr(0, 10));
-  EXPECT_ERROR_WITH(open_bytes("t1.klg", bytes, &path), ErrorCode::kCorruptData, path, "frame 1",
-                    "at byte " + std::to_string(4 + f0.size()), "truncated frame header");
+  auto src = open_bytes("t1.klg", bytes, &path);
+  ASSERT_TRUE(src.ok()) << src.error().message;
+  EXPECT_EQ((*src)->info().frame_count, 1);
+  EXPECT_EQ((*src)->info().warning, "klg file '" + path +
+                                        "' was cut while written: its frame count says 2, 1 whole frame is read, and "
+                                        "the last 10 bytes (a part frame) are left out");
+  Frame f;
+  ASSERT_TRUE(*(*src)->next(f));
+  EXPECT_FLOAT_EQ(f.depth(2, 2), 1.0f);
+  EXPECT_FALSE(*(*src)->next(f));
+}
+
+// Cut at every byte of a three-frame log written by KlgWriter: every whole frame before the cut is
+// read back, with the right depth, and a warning whenever the file is not whole.
+TEST(KlgReader, ALogCutAtAnyByteReadsItsWholeFrames) {
+  const auto dir = test::scratch_dir("klg_cut");
+  const std::string path = (dir / "whole.klg").string();
+  KlgWriter w;
+  ASSERT_TRUE(w.open(path, 8, 6, KlgWriteOptions{true, 0}).ok());
+  std::vector<uint64_t> ends;  // the file's length after each frame: the count is right at each
+  for (int i = 0; i < 3; ++i) {
+    Frame f;
+    f.allocate(8, 6, false);
+    f.depth.fill(0.5f + 0.25f * float(i));
+    f.color.fill(Rgb8{uint8_t(10 * i), 0, 0});
+    f.timestamp = 1.0 + i / 30.0;
+    ASSERT_TRUE(w.write(f).ok());
+    ends.push_back(fs::file_size(path));
+    // Killed now, the file is complete: its count already says i + 1.
+    auto now = open_path(path, "?size=8x6");
+    ASSERT_TRUE(now.ok()) << now.error().message;
+    EXPECT_EQ((*now)->info().frame_count, i + 1);
+    EXPECT_EQ((*now)->info().warning, "");
+  }
+  ASSERT_TRUE(w.close().ok());
+  const std::string bytes = test::read_bytes(path);
+  for (std::size_t cut = 4; cut < bytes.size(); ++cut) {
+    const std::string cut_path = (dir / "cut.klg").string();
+    test::write_bytes(cut_path, bytes.substr(0, cut));
+    auto src = open_path(cut_path, "?size=8x6");
+    const int whole = int(std::count_if(ends.begin(), ends.end(), [&](uint64_t e) { return e <= cut; }));
+    if (whole == 0) {
+      EXPECT_FALSE(src.ok()) << cut;
+      continue;
+    }
+    ASSERT_TRUE(src.ok()) << cut << ": " << src.error().message;
+    EXPECT_EQ((*src)->info().frame_count, whole) << cut;
+    EXPECT_NE((*src)->info().warning.find(std::to_string(whole) + " whole frame"), std::string::npos) << cut;
+    Frame f;
+    for (int i = 0; i < whole; ++i) {
+      ASSERT_TRUE(*(*src)->next(f)) << cut;
+      EXPECT_FLOAT_EQ(f.depth(4, 3), 0.5f + 0.25f * float(i));
+    }
+    EXPECT_FALSE(*(*src)->next(f));
+  }
 }
 
 TEST(KlgReader, TruncatedInFramePayload) {
@@ -130,15 +185,28 @@ TEST(KlgReader, NegativeAndHugeSizeFields) {
                     ErrorCode::kCorruptData, path, "image size 99999999", "8x6");
   EXPECT_ERROR_WITH(open_bytes("negcount.klg", with_count(-3, ""), &path), ErrorCode::kCorruptData, path,
                     "negative frame count");
-  EXPECT_ERROR_WITH(open_bytes("hugecount.klg", with_count(2147483647, frame_record(0, raw_depth(8, 6, 1), "")), &path),
-                    ErrorCode::kCorruptData, path, "frame 1", "truncated frame header");
+  // A count far beyond the frames present: the frames present, with the warning.
+  auto huge = open_bytes("hugecount.klg", with_count(2147483647, frame_record(0, raw_depth(8, 6, 1), "")), &path);
+  ASSERT_TRUE(huge.ok()) << huge.error().message;
+  EXPECT_EQ((*huge)->info().frame_count, 1);
+  EXPECT_NE((*huge)->info().warning.find("its frame count says 2147483647, 1 whole frame is read"), std::string::npos);
 }
 
 TEST(KlgReader, TrailingBytesAndDecreasingTimestamps) {
   const std::string f0 = frame_record(100, raw_depth(8, 6, 1), "");
   std::string path;
-  EXPECT_ERROR_WITH(open_bytes("trail.klg", with_count(1, f0 + "junk"), &path), ErrorCode::kCorruptData, path,
-                    "4 bytes after the last of 1 frames");
+  // Fewer bytes than a frame header after the counted frames: a part frame, left out with a warning.
+  auto trail = open_bytes("trail.klg", with_count(1, f0 + "junk"), &path);
+  ASSERT_TRUE(trail.ok()) << trail.error().message;
+  EXPECT_NE((*trail)->info().warning.find("the last 4 bytes (a part frame) are left out"), std::string::npos);
+  // A header's worth of bytes that is not a frame: an error, as the count or the size is wrong.
+  EXPECT_ERROR_WITH(open_bytes("junk.klg", with_count(1, f0 + std::string(20, '\xff')), &path),
+                    ErrorCode::kCorruptData, path, "20 bytes after the last of 1 frames that are not frames");
+  // A count never written (0) over whole frames: the frames, with the warning.
+  auto zero = open_bytes("zero.klg", with_count(0, f0 + frame_record(200, raw_depth(8, 6, 1), "")), &path);
+  ASSERT_TRUE(zero.ok()) << zero.error().message;
+  EXPECT_EQ((*zero)->info().frame_count, 2);
+  EXPECT_NE((*zero)->info().warning.find("its frame count says 0, 2 whole frames are read"), std::string::npos);
   EXPECT_ERROR_WITH(open_bytes("back.klg", with_count(2, f0 + frame_record(50, raw_depth(8, 6, 1), "")), &path),
                     ErrorCode::kCorruptData, path, "frame 1", "before the previous");
 }
