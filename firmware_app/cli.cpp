@@ -25,6 +25,7 @@ void print_main_help() {
       "  segment   run the segmentation network on a source: class-id images per frame\n"
       "  model     inspect a network (info) or quantise an ONNX one to .efm (import)\n"
       "  plan      print the memory a run of a configuration allocates, part by part, against its budget\n"
+      "  export    write the map of a run's newest checkpoint as a PLY file (a run killed before its end)\n"
       "  version   print the version and the CPU paths this machine can use\n\n"
       "Sources: %s\n",
       kVersion, source_uri_help_text());
@@ -52,8 +53,9 @@ int run_cli(int argc, char** argv) {
   if (cmd == "segment") return cmd_segment(argc, argv);
   if (cmd == "model") return cmd_model(argc, argv);
   if (cmd == "plan") return cmd_plan(argc, argv);
+  if (cmd == "export") return cmd_export(argc, argv);
   std::fprintf(stderr,
-               "edgefusion: unknown command '%s' (expected run, eval, convert, segment, model, plan, version; see --help)\n",
+               "edgefusion: unknown command '%s' (expected run, eval, convert, segment, model, plan, export, version; see --help)\n",
                cmd.c_str());
   return 2;
 }

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -24,7 +25,16 @@ using namespace ef::pipeline;  // the run pipeline, its configuration and memory
 
 namespace {
 
-const std::vector<OptionSpec>& run_options() { return config_override_options(); }
+const std::vector<OptionSpec>& run_options() {
+  static const std::vector<OptionSpec> specs = [] {
+    std::vector<OptionSpec> s = config_override_options();
+    s.push_back({"--resume", "DIR",
+                 "continue the run in DIR from its newest checkpoint, with its configuration (DIR/config.yaml); "
+                 "flags still override keys"});
+    return s;
+  }();
+  return specs;
+}
 
 std::string run_help() {
   std::string rooms;
@@ -141,9 +151,27 @@ int cmd_run(int argc, char** argv) {
   auto args = parse_args(kCmd, run_options(), 0, argc, argv, 2);
   if (!args.ok()) return report_error(kCmd, args.error(), 2);
 
-  auto config_or = config_from_args(*args);
+  // --resume DIR: the run's own configuration, its folder, and its newest checkpoint.
+  const bool resume = args->has("--resume");
+  if (resume && (args->has("--config") || args->has("--out") || args->has("--overwrite")))
+    return report_error(kCmd, error(ErrorCode::kInvalidArgument,
+                                    "--resume DIR continues the run in DIR with its own configuration "
+                                    "(DIR/config.yaml): it takes no --config, --out or --overwrite"),
+                        2);
+  const std::string resume_dir = resume ? args->get("--resume") : std::string();
+  if (resume && !std::filesystem::exists(std::filesystem::path(resume_dir) / "config.yaml"))
+    return report_error(kCmd, error(ErrorCode::kNotFound, "--resume: '" + resume_dir +
+                                                              "' has no config.yaml: not the folder of a run"),
+                        2);
+  auto config_or = resume ? config_from_args(*args, (std::filesystem::path(resume_dir) / "config.yaml").string())
+                          : config_from_args(*args);
   if (!config_or.ok()) return report_error(kCmd, config_or.error(), 2);
   RunConfig config = std::move(*config_or);
+  if (resume) {
+    config.run.out = resume_dir;
+    config.output.resume = true;
+    config.output.overwrite = false;
+  }
   // What can be known wrong without the source (`plan` checks the same: check_and_plan).
   if (Status s = config.validate(); !s.ok()) return report_error(kCmd, s.error(), 2);
 
@@ -172,6 +200,11 @@ int cmd_run(int argc, char** argv) {
     return report_error(kCmd, pipeline_or.error(), code == ErrorCode::kIoError ? 1 : 2);
   }
   RunPipeline& pipeline = **pipeline_or;
+  report_warning(kCmd, pipeline.resume_warning());
+  if (pipeline.resumed())
+    std::fprintf(stderr, "%s: resuming %s after frame %lld (checkpoint of %.1f s of mapping)\n", kCmd,
+                 pipeline.out_folder().c_str(), static_cast<long long>(pipeline.resumed()->frames),
+                 pipeline.resumed()->seconds);
   int64_t expected = info.frame_count;
   if (config.run.frames > 0 && (expected < 0 || config.run.frames < expected)) expected = config.run.frames;
   PanelObserver panel(kCmd, gpio, config.gpio, stats, expected, config.run.progress);

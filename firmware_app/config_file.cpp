@@ -206,8 +206,12 @@ const std::vector<OptionSpec>& config_override_options() {
 }
 
 Result<RunConfig> config_from_args(const ParsedArgs& args) {
+  return config_from_args(args, args.has("--config") ? args.get("--config") : std::string());
+}
+
+Result<RunConfig> config_from_args(const ParsedArgs& args, const std::string& base_file) {
   RunConfig config;
-  if (args.has("--config")) EF_RETURN_IF_ERROR(apply_config_file(args.get("--config"), config));
+  if (!base_file.empty()) EF_RETURN_IF_ERROR(apply_config_file(base_file, config));
   // Every flag overrides its key, in the order of the keys.
   for (const ConfigKey& k : config_keys()) {
     if (k.flag.empty() || !args.has(k.flag)) continue;

@@ -49,5 +49,7 @@ const std::vector<OptionSpec>& config_override_options();
 // --config FILE, then every flag. Errors name the file / option, the key and the value. Does not
 // validate() the result: the commands do, after it.
 Result<RunConfig> config_from_args(const ParsedArgs& args);
+// The same on top of `base_file` (a resumed run's config.yaml) instead of --config.
+Result<RunConfig> config_from_args(const ParsedArgs& args, const std::string& base_file);
 
 }  // namespace ef::app

@@ -134,6 +134,30 @@ Status TumTrajectoryWriter::open(const std::string& path, double sync_seconds) {
   return append(kHeader, sizeof kHeader - 1);
 }
 
+Status TumTrajectoryWriter::open_append(const std::string& path, int64_t keep_bytes, double sync_seconds) {
+  (void)close();
+  path_ = path;
+  sync_seconds_ = sync_seconds;
+  lines_ = 0;
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd_ < 0) return error(ErrorCode::kIoError, path + ": cannot continue the trajectory: " + std::strerror(errno));
+  const off_t size = ::lseek(fd_, 0, SEEK_END);
+  if (size < keep_bytes) {
+    (void)close();
+    return error(ErrorCode::kCorruptData, path + ": has " + std::to_string(size) + " bytes, fewer than the " +
+                                              std::to_string(keep_bytes) + " the checkpoint covers");
+  }
+  if (::ftruncate(fd_, static_cast<off_t>(keep_bytes)) != 0 || ::lseek(fd_, static_cast<off_t>(keep_bytes), SEEK_SET) < 0) {
+    const int e = errno;
+    (void)close();
+    return error(ErrorCode::kIoError, path + ": cannot cut it back to the checkpoint: " + std::strerror(e));
+  }
+  bytes_ = keep_bytes;
+  last_sync_ns_ = steady_ns();
+  unsynced_ = true;  // the cut is synced with the next line
+  return Status::success();
+}
+
 Status TumTrajectoryWriter::append(const char* line, std::size_t n) {
   std::size_t done = 0;
   while (done < n) {

@@ -54,6 +54,11 @@ class TumTrajectoryWriter {
 
   // Creates (truncates) `path` and writes a '#' header line. The parent folder must exist.
   Status open(const std::string& path, double sync_seconds = -1);
+  // Continues an existing file (a resumed run): cut back to its first `keep_bytes` bytes (the
+  // lines a checkpoint covers), then appends. Errors: a missing file or one shorter than that.
+  Status open_append(const std::string& path, int64_t keep_bytes, double sync_seconds = -1);
+  // The file's length: whole lines only.
+  int64_t bytes() const { return bytes_; }
   // Appends one line. Error if not open or the write fails (naming the file, the line and the reason).
   Status write(double timestamp, const SE3& T_wc);
   // Appends "# <text>" as its own line (TUM readers skip it). `text` must be one line. Used by

@@ -39,6 +39,21 @@ Status FrontStage::allocate(PreparedFrame& slot) const {
   return Status::success();
 }
 
+Status FrontStage::resume_at(int64_t frames) {
+  if (capture_ == nullptr) {
+    for (int64_t i = 0; i < frames; ++i) {
+      auto got = source_.next(input_);
+      if (!got.ok()) return got.error();
+      if (!*got)
+        return error(ErrorCode::kInvalidArgument, source_.info().uri + " has " + std::to_string(i) +
+                                                      " frames; the checkpoint continues after frame " +
+                                                      std::to_string(frames) + " (a different recording?)");
+    }
+  }
+  delivered_ = frames;
+  return Status::success();
+}
+
 void FrontStage::start_capture() {
   if (capture_ != nullptr) capture_->start(pipeline_.capture_cpu);
 }

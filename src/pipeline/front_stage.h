@@ -81,6 +81,10 @@ class FrontStage {
   // Live sources: starts reading the camera on the capture thread (pinned to pipeline.capture_cpu
   // when >= 0). Does nothing for recordings.
   void start_capture();
+  // A resumed run (pipeline/checkpoint.h): the next frame is number `frames`. A recording skips its
+  // first `frames` frames (read and dropped); a live camera goes on with what it sees now. Before
+  // start_capture(). Errors: a recording shorter than that, naming both counts; the source's.
+  Status resume_at(int64_t frames);
 
   enum class Step {
     kFrame,       // `slot` holds the next frame, prepared

@@ -16,11 +16,14 @@ slam::SurfelSlamOptions MappingStage::slam_options(const slam::SurfelSlamOptions
 Result<std::unique_ptr<MappingStage>> MappingStage::create(const slam::SurfelSlamOptions& options,
                                                            const Intrinsics& working, StageStats& stats,
                                                            RunSemantics* semantics, const std::string& trajectory_path,
-                                                           double sync_seconds) {
+                                                           double sync_seconds, int64_t resume_trajectory_bytes) {
   auto slam = slam::SurfelSlam::create(working, slam_options(options));
   if (!slam.ok()) return slam.take_error();
   std::unique_ptr<MappingStage> m(new MappingStage(std::move(*slam), stats, semantics));
-  EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path, sync_seconds));
+  if (resume_trajectory_bytes >= 0)
+    EF_RETURN_IF_ERROR(m->trajectory_.open_append(trajectory_path, resume_trajectory_bytes, sync_seconds));
+  else
+    EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path, sync_seconds));
   int ids[std::size(kStageNames)];
   for (std::size_t i = 0; i < std::size(kStageNames); ++i) ids[i] = stats.add_stage(kStageNames[i]);
   m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8]};
@@ -58,6 +61,7 @@ Status MappingStage::step(const PreparedFrame& slot) {
   stats_.increment(c_.lost, result_.lost ? 1 : 0);
   stats_.increment(c_.fused, result_.fused ? 1 : 0);
   ++frames_;
+  last_timestamp_ = frame.timestamp;
   stats_.record_ms(st_.mapping, ms_since(t_start));
   return Status::success();
 }

@@ -39,11 +39,14 @@ class MappingStage {
   // own: options.own_preprocessor is set false here). working: intrinsics at the working
   // resolution. semantics: borrowed, may be null. The trajectory is written to `trajectory_path`
   // (created now), a whole line per frame, synced at most `sync_seconds` after a line
-  // (io/trajectory_io.h). Errors: the SLAM's options, the file's.
+  // (io/trajectory_io.h); with resume_trajectory_bytes >= 0 (a resumed run) the existing file is
+  // cut back to that length and continued. Errors: the SLAM's options, the file's.
   static Result<std::unique_ptr<MappingStage>> create(const slam::SurfelSlamOptions& options,
                                                       const Intrinsics& working, StageStats& stats,
                                                       RunSemantics* semantics, const std::string& trajectory_path,
-                                                      double sync_seconds);
+                                                      double sync_seconds, int64_t resume_trajectory_bytes = -1);
+  // A resumed run: `frames` were mapped before (the SLAM was restored from the checkpoint).
+  void resume_at(int64_t frames) { frames_ = frames; }
   // The options create() gives the SLAM.
   static slam::SurfelSlamOptions slam_options(const slam::SurfelSlamOptions& options);
 
@@ -61,6 +64,12 @@ class MappingStage {
   int64_t frames() const { return frames_; }  // frames mapped (tracked or lost)
   // Closes the trajectory file (reports a failed final write).
   Status close_trajectory() { return trajectory_.close(); }
+  // Syncs the trajectory and returns its length (for a checkpoint).
+  Result<int64_t> sync_trajectory() {
+    EF_RETURN_IF_ERROR(trajectory_.flush());
+    return trajectory_.bytes();
+  }
+  double last_timestamp() const { return last_timestamp_; }
 
  private:
   MappingStage(slam::SurfelSlam slam, StageStats& stats, RunSemantics* semantics)
@@ -73,6 +82,7 @@ class MappingStage {
   TumTrajectoryWriter trajectory_;
   slam::SlamFrameResult result_;
   int64_t frames_ = 0;
+  double last_timestamp_ = 0;  // of the last mapped frame
   char line_[128] = {};  // the '# lost' comment, formatted without the heap
   struct StageIds {
     int source, resample, preprocess, front, track, fuse, predict, slam, mapping;

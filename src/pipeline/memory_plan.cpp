@@ -17,6 +17,7 @@
 #include "pipeline/front_stage.h"
 #include "pipeline/mapping_stage.h"
 #include "pipeline/model_paths.h"
+#include "pipeline/run_pipeline.h"
 #include "pipeline/run_semantics.h"
 #include "semantic/dense_crf.h"
 #include "semantic/label_fusion.h"
@@ -114,7 +115,8 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
           " predicted levels");
   add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, scale, capacity, slam.fusion),
       "marks per index cell, seen surfels, the lifetime sweep, per-pixel measurements");
-  const size_t stages = std::size(MappingStage::kStageNames) + (labels ? std::size(RunSemantics::kStageNames) : 0);
+  const size_t stages = std::size(MappingStage::kStageNames) + (labels ? std::size(RunSemantics::kStageNames) : 0) +
+                        std::size(RunPipeline::kStageNames);
   add("stage statistics", StageStats::bytes_for(stages),
       std::to_string(stages) + " stages + 1 scratch x " + std::to_string(StageStats::kDefaultCapacity) + " samples");
 

@@ -109,6 +109,10 @@ const opt::Table<OutputOptions>& OutputOptions::table() {
        "stats.json is rewritten whole (state \"running\") this often during the run"},
       {"overwrite", "", "--overwrite", &OutputOptions::overwrite, "", opt::any(),
        "replace the outputs of an earlier run in `out`; otherwise a folder that holds one is refused"},
+      {"checkpoint_seconds", "", "--checkpoint-seconds", &OutputOptions::checkpoint_seconds, "s",
+       opt::between(0.1, 86400).or_value(0, "none"),
+       "the whole map state is written to checkpoint.efs this often and at the end (run --resume DIR continues "
+       "from it; edgefusion export DIR writes its map.ply)"},
   };
   return t;
 }

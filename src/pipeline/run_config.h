@@ -13,7 +13,7 @@
 //                semantic::DenseCrfOptions      iterations
 //   pipeline     PipelineOptions                threads, prepared_slots, capture_slots, *_cpu
 //   memory       MemoryOptions                  budget_mb
-//   output       OutputOptions                  sync_seconds, stats_seconds, overwrite
+//   output       OutputOptions                  sync_seconds, stats_seconds, overwrite, checkpoint_seconds
 //   gpio         GpioLineConfig (led_, button_), chip, line, active_low; debounce_ms, optional
 //                GpioOptions
 //
@@ -109,6 +109,9 @@ struct OutputOptions {
   double sync_seconds = 1;   // trajectory.txt synced at most this long after a line, s; 0 = every line
   double stats_seconds = 5;  // stats.json rewritten (state "running") this often, s; 0 = at start and end only
   bool overwrite = false;    // replace an earlier run's outputs in `out`; false = such a folder is refused
+  double checkpoint_seconds = 30;  // a map checkpoint this often and at the end, s; 0 = none
+  // `run --resume DIR` (no key): continue the run in `out` from its newest checkpoint.
+  bool resume = false;
 
   static const opt::Table<OutputOptions>& table();
   Status validate() const;

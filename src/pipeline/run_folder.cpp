@@ -40,6 +40,11 @@ Status update_latest_link(const fs::path& parent, const std::string& name) {
 }  // namespace
 
 Status check_out_folder(const RunOptions& run, const OutputOptions& output) {
+  if (output.resume) {
+    if (!fs::is_directory(run.out))
+      return error(ErrorCode::kNotFound, "--resume: '" + run.out + "' is not a run folder");
+    return Status::success();
+  }
   if (output.overwrite || has_time_placeholder(run.out)) return Status::success();
   const std::string found = run_files_in(run.out);
   if (found.empty()) return Status::success();
@@ -54,7 +59,9 @@ Result<std::string> prepare_out_folder(const RunOptions& run, const OutputOption
   while (out.size() > 1 && out.back() == '/') out.pop_back();
   std::string run_name;  // the folder's own name, when {time} made it
   std::error_code ec;
-  if (has_time_placeholder(out)) {
+  if (output.resume) {
+    EF_RETURN_IF_ERROR(check_out_folder(run, output));
+  } else if (has_time_placeholder(out)) {
     std::tm local{};
     localtime_r(&now, &local);
     char stamp[32];
@@ -73,7 +80,7 @@ Result<std::string> prepare_out_folder(const RunOptions& run, const OutputOption
 
   // An earlier run's outputs (overwrite) and a killed run's leftovers.
   for (const char* name : kRunFiles) {
-    if (output.overwrite) fs::remove(fs::path(out) / name, ec);
+    if (output.overwrite && !output.resume) fs::remove(fs::path(out) / name, ec);
     fs::remove(fs::path(out) / (std::string(name) + ".partial"), ec);
     fs::remove(fs::path(out) / ("." + std::string(name) + ".next"), ec);
   }

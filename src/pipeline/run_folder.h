@@ -22,16 +22,18 @@
 namespace ef::pipeline {
 
 // The outputs that make a folder a run's.
-inline constexpr const char* kRunFiles[] = {"trajectory.txt", "map.ply", "stats.json"};
+inline constexpr const char* kRunFiles[] = {"trajectory.txt", "map.ply", "stats.json", "checkpoint.efs",
+                                            "checkpoint.prev.efs", "config.yaml"};
 inline constexpr const char* kTimePlaceholder = "{time}";
 
 // Ok when `out` can take a new run: it has "{time}", does not exist, or holds no run's outputs (or
-// overwrite). Error (kInvalidArgument) naming the folder, the outputs found and the ways out.
+// overwrite, or resume: continuing it). Error (kInvalidArgument) naming the folder, the outputs found and the ways out.
 Status check_out_folder(const RunOptions& run, const OutputOptions& output);
 
 // Creates the run's folder and returns its path: "{time}" replaced (`now`: the start time), the
-// `latest` link updated; an earlier run's outputs removed (overwrite); leftovers removed. Errors
-// name the folder and the reason.
+// `latest` link updated; an earlier run's outputs removed (overwrite); leftovers removed. With
+// output.resume the folder must exist and keeps its outputs (the run continues them). Errors name
+// the folder and the reason.
 Result<std::string> prepare_out_folder(const RunOptions& run, const OutputOptions& output, std::time_t now);
 
 }  // namespace ef::pipeline

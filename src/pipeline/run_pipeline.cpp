@@ -10,6 +10,7 @@
 
 #include "io/ply_writer.h"
 #include "io/stats_json.h"
+#include "pipeline/checkpoint.h"
 #include "pipeline/run_folder.h"
 #include "platform/cpu/thread_affinity.h"
 #include "sources/open_source.h"
@@ -53,9 +54,24 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   if (!folder.ok()) return folder.take_error();
   p->out_folder_ = std::move(*folder);
   const std::filesystem::path out(p->out_folder_);
+  // A resumed run: its newest valid checkpoint, and the trajectory cut back to the lines it covers.
+  std::optional<FoundCheckpoint> checkpoint;
+  if (config.output.resume) {
+    auto found = find_checkpoint(p->out_folder_);
+    if (!found.ok()) return found.take_error();
+    checkpoint = std::move(*found);
+    const CheckpointMeta& m = checkpoint->meta;
+    if (m.width != config.run.resolution.width || m.height != config.run.resolution.height)
+      return error(ErrorCode::kInvalidArgument,
+                   checkpoint->reader->path() + ": mapped at " + std::to_string(m.width) + "x" +
+                       std::to_string(m.height) + "; this run's resolution is " +
+                       std::to_string(config.run.resolution.width) + "x" + std::to_string(config.run.resolution.height));
+    p->resumed_ = m;
+  }
   const std::string trajectory_path = (out / "trajectory.txt").string();
   auto mapping = MappingStage::create(config.mapping, working, stats, p->semantics_.get(), trajectory_path,
-                                      config.output.sync_seconds);
+                                      config.output.sync_seconds,
+                                      checkpoint ? checkpoint->meta.trajectory_bytes : int64_t{-1});
   if (!mapping.ok()) return mapping.take_error();
   p->mapping_ = std::move(*mapping);
   auto front = FrontStage::create(config.run, config.pipeline, source, p->mapping_->slam(), p->semantics_.get());
@@ -84,6 +100,23 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                      stats.add_counter("frames_dropped_overload"), stats.add_counter("surfels_created"),
                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
                      stats.add_counter("surfels_refused"), stats.add_counter("cnn_frames_skipped")};
+  p->st_checkpoint_ = stats.add_stage(kStageNames[0]);
+
+  if (checkpoint) {
+    EF_RETURN_IF_ERROR(restore_checkpoint(*checkpoint, p->mapping_->slam(), stats));
+    p->mapping_->resume_at(checkpoint->meta.frames);
+    EF_RETURN_IF_ERROR(p->front_->resume_at(checkpoint->meta.frames));
+    p->resume_warning_ = checkpoint->warning;
+  } else {
+    // The configuration beside the outputs: what `run --resume` continues with.
+    FileReplacement file((out / "config.yaml").string());
+    std::FILE* f = std::fopen(file.temp_path().c_str(), "wb");
+    const std::string text = config.describe();
+    const bool ok = f != nullptr && std::fwrite(text.data(), 1, text.size(), f) == text.size();
+    if (f != nullptr && std::fclose(f) != 0) return error(ErrorCode::kIoError, file.path() + ": write failed");
+    if (!ok) return error(ErrorCode::kIoError, file.path() + ": cannot write the run's configuration");
+    EF_RETURN_IF_ERROR(file.commit());
+  }
 
   // stats.json from the start, so that a run killed at any moment leaves one that says "running".
   // Its text's room is reserved now (a few kB; 64 kB holds 32 stages and 64 counters).
@@ -95,7 +128,9 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                      {"surfel_capacity", static_cast<double>(p->mapping_->slam().pool().capacity())},
                      {"surfel_pool_bytes", static_cast<double>(p->mapping_->slam().pool_bytes())},
                      {"bytes_per_surfel", static_cast<double>(slam::SurfelPool::kBytesPerSurfel)},
-                     {"peak_rss_bytes", 0}};
+                     {"peak_rss_bytes", 0},
+                     {"resumed_at_frame", p->resumed_ ? static_cast<double>(p->resumed_->frames) : 0.0},
+                     {"checkpoints", 0}};
   p->stats_file_.open((out / "stats.json").string());
   EF_RETURN_IF_ERROR(p->write_stats("running", 0, 0.0));
   return p;
@@ -117,6 +152,37 @@ Status RunPipeline::write_stats(const char* state, int64_t frames, double second
   stats_extra_[7].value = peak_rss_bytes();                                       // "peak_rss_bytes"
   write_stats_object(stats_json_, stats_, static_cast<uint64_t>(frames), seconds, stats_extra_, state);
   return stats_file_.write(stats_json_.str());
+}
+
+Status RunPipeline::checkpoint(double seconds) {
+  if (mapping_->frames() == 0) return Status::success();
+  const auto t0 = std::chrono::steady_clock::now();
+  // The trajectory's lines of the frames it covers are on disk before the snapshot says so.
+  auto bytes = mapping_->sync_trajectory();
+  if (!bytes.ok()) return bytes.error();
+  CheckpointMeta meta;
+  meta.frames = mapping_->frames();
+  meta.last_timestamp = mapping_->last_timestamp();
+  meta.trajectory_bytes = *bytes;
+  meta.width = config_.run.resolution.width;
+  meta.height = config_.run.resolution.height;
+  meta.capacity = mapping_->slam().pool().capacity();
+  meta.seconds = (resumed_ ? resumed_->seconds : 0.0) + seconds;
+  meta.labels = semantics_ != nullptr;
+  update_counters();
+  EF_RETURN_IF_ERROR(write_checkpoint(out_folder_, meta, mapping_->slam(), stats_, checkpoint_names_));
+  stats_.record_ms(st_checkpoint_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  stats_extra_[9].value += 1;  // "checkpoints"
+  return Status::success();
+}
+
+Status RunPipeline::maybe_checkpoint() {
+  if (config_.output.checkpoint_seconds <= 0) return Status::success();
+  const auto now = std::chrono::steady_clock::now();
+  if (now < next_checkpoint_) return Status::success();
+  next_checkpoint_ = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                               std::chrono::duration<double>(config_.output.checkpoint_seconds));
+  return checkpoint(std::chrono::duration<double>(now - start_).count());
 }
 
 Status RunPipeline::maybe_write_stats() {
@@ -183,6 +249,8 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
   start_ = start;
   next_stats_ = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                             std::chrono::duration<double>(config_.output.stats_seconds));
+  next_checkpoint_ = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double>(config_.output.checkpoint_seconds));
   pin_current_thread_or_warn(config_.pipeline.mapping_cpu, "mapping");
   front_->start_capture();
   StageRing<PreparedFrame>& ring = *ring_;
@@ -208,8 +276,11 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
     const bool more = consume(*slot, observer, outcome);
     ring.release(kMapping);
     if (!more) break;
-    // A stats.json that cannot be written (a full disk) ends the run like any output's failure.
-    if (Status s = maybe_write_stats(); !s.ok()) {
+    // A stats.json or checkpoint that cannot be written (a full disk) ends the run like any
+    // output's failure.
+    Status s = maybe_checkpoint();
+    if (s.ok()) s = maybe_write_stats();
+    if (!s.ok()) {
       outcome.error = s.error();
       break;
     }
@@ -243,6 +314,10 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   else out.wrote_trajectory = true;
   if (semantics_ != nullptr) {
     if (Status s = semantics_->finish(slam); !s.ok()) out.errors.push_back(s.error());
+  }
+  // The final checkpoint: a finished run can be continued or exported like an interrupted one.
+  if (config_.output.checkpoint_seconds > 0 && !outcome.error) {
+    if (Status s = checkpoint(outcome.seconds); !s.ok()) out.errors.push_back(s.error());
   }
   if (config_.run.map) {
     const std::string comment =

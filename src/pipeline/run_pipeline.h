@@ -52,6 +52,7 @@
 #include "core/stage_ring.h"
 #include "core/result.h"
 #include "core/stage_stats.h"
+#include "pipeline/checkpoint.h"
 #include "pipeline/cnn_worker.h"
 #include "pipeline/final_labels.h"
 #include "pipeline/front_stage.h"
@@ -92,6 +93,9 @@ struct OutputFiles {
 
 class RunPipeline {
  public:
+  // The stage it records itself (the others: MappingStage's and RunSemantics').
+  static constexpr const char* kStageNames[] = {"checkpoint"};
+
   // source: borrowed, must outlive the pipeline. Checks the configuration (RunConfig::validate,
   // check_run), then creates the output folder and the trajectory file, the SLAM, the semantics
   // (labels.enabled), the slots and the rings; registers every stage and counter in `stats`
@@ -123,6 +127,10 @@ class RunPipeline {
   std::size_t cnn_job_bytes() const { return cnn_ != nullptr ? cnn_->bytes() : 0; }
   // The run's folder: run.out with "{time}" replaced (pipeline/run_folder.h).
   const std::string& out_folder() const { return out_folder_; }
+  // A resumed run: the checkpoint it continues (frames mapped before), and a warning when the
+  // newest checkpoint was corrupt and the one before it was used.
+  const std::optional<CheckpointMeta>& resumed() const { return resumed_; }
+  const std::string& resume_warning() const { return resume_warning_; }
 
  private:
   RunPipeline(const RunConfig& config, FrameSource& source, StageStats& stats)
@@ -140,6 +148,10 @@ class RunPipeline {
   Status write_stats(const char* state, int64_t frames, double seconds);
   // A periodic rewrite when output.stats_seconds have passed.
   Status maybe_write_stats();
+  // A checkpoint of the map now (pipeline/checkpoint.h); `seconds`: of this session so far. On the
+  // mapping thread, between frames: the mapper pauses for it (stage "checkpoint" in stats.json).
+  Status checkpoint(double seconds);
+  Status maybe_checkpoint();
 
   const RunConfig config_;
   FrameSource& source_;
@@ -155,7 +167,11 @@ class RunPipeline {
   RewrittenFile stats_file_;
   JsonWriter stats_json_;
   std::vector<StatsExtraField> stats_extra_;
-  std::chrono::steady_clock::time_point start_, next_stats_;
+  std::chrono::steady_clock::time_point start_, next_stats_, next_checkpoint_;
+  std::optional<CheckpointMeta> resumed_;  // the checkpoint this run continues
+  std::string resume_warning_;             // a corrupt newest checkpoint, when the one before was used
+  std::string checkpoint_names_;           // scratch for write_checkpoint()
+  int st_checkpoint_ = -1;
   struct CounterIds {
     int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,
         surfels_refused, cnn_skipped;

@@ -328,6 +328,10 @@ class SurfelFusion {
   const FusionOptions& options() const { return options_; }
   const Intrinsics& intrinsics() const { return K_; }
   int index_map_scale() const { return scale_; }
+  // Where the lifetime sweep goes on next frame: the one thing fusion carries from frame to frame
+  // (a checkpoint saves and restores it).
+  int64_t sweep_cursor() const { return sweep_cursor_; }
+  void set_sweep_cursor(int64_t id) { sweep_cursor_ = id; }
   // Bytes allocated by create().
   std::size_t bytes() const { return bytes_; }
   // Bytes create() allocates for a working image of width x height, an index map of that scale and

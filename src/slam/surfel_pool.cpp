@@ -219,4 +219,15 @@ int64_t SurfelPool::reserve_for_new(int64_t wanted, int32_t frame, float stable_
   return room + evicted;
 }
 
+Status SurfelPool::set_restored(int64_t size, const SurfelPoolCounters& counters) {
+  if (size < 0 || size > options_.capacity)
+    return error(ErrorCode::kInvalidArgument, "surfel pool: a checkpoint of " + std::to_string(size) +
+                                                  " surfels does not fit a pool of " +
+                                                  std::to_string(options_.capacity) +
+                                                  " (mapping.surfel_capacity must be at least the checkpoint's)");
+  size_ = size;
+  counters_ = counters;
+  return Status::success();
+}
+
 }  // namespace ef::slam

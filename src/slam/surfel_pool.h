@@ -124,6 +124,10 @@ class SurfelPool {
   // One pass; counted in `removed`. Returns how many were removed.
   int64_t remove_flagged(const uint8_t* flags);
   void clear() { size_ = 0; }
+  // A pool loaded from a checkpoint: its first `size` surfels were written into the columns by the
+  // caller; the counters continue from `counters`. Error (kInvalidArgument) when size is outside
+  // 0..capacity().
+  Status set_restored(int64_t size, const SurfelPoolCounters& counters);
 
   const SurfelPoolCounters& counters() const { return counters_; }
 

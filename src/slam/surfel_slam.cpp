@@ -81,8 +81,35 @@ Result<SurfelSlam> SurfelSlam::create(const Intrinsics& working, const SurfelSla
                   std::move(pool), std::move(order));
   slam.T_world_last_ = options.initial_pose;
   // An empty index map at the initial pose: the first frame finds no candidates and creates surfels.
+  slam.predicted_frame_ = 0;
+  slam.predicted_min_confidence_ = options.prediction.stable_confidence;
   EF_RETURN_IF_ERROR(slam.predictor_.predict(slam.pool_, slam.T_world_last_, 0, options.prediction.stable_confidence));
   return slam;
+}
+
+SurfelSlam::State SurfelSlam::state() const {
+  State s;
+  s.T_world_last = T_world_last_;
+  s.last_motion = last_motion_;
+  s.frames = frames_;
+  s.fused_frames = fused_frames_;
+  s.lost_frames = lost_frames_;
+  s.sweep_cursor = fusion_.sweep_cursor();
+  s.predicted_frame = predicted_frame_;
+  s.predicted_min_confidence = predicted_min_confidence_;
+  return s;
+}
+
+Status SurfelSlam::restore(const State& s) {
+  T_world_last_ = s.T_world_last;
+  last_motion_ = s.last_motion;
+  frames_ = s.frames;
+  fused_frames_ = s.fused_frames;
+  lost_frames_ = s.lost_frames;
+  fusion_.set_sweep_cursor(s.sweep_cursor);
+  predicted_frame_ = s.predicted_frame;
+  predicted_min_confidence_ = s.predicted_min_confidence;
+  return predictor_.predict(pool_, T_world_last_, predicted_frame_, predicted_min_confidence_);
 }
 
 float SurfelSlam::tracking_min_confidence() const {
@@ -172,7 +199,9 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     T_world_last_ = T_world_cur;
 
     t0 = Clock::now();
-    EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_world_cur, frame_index, tracking_min_confidence()));
+    predicted_frame_ = frame_index;
+    predicted_min_confidence_ = tracking_min_confidence();
+    EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_world_cur, frame_index, predicted_min_confidence_));
     result->timings.predict_ms = ms_since(t0);
   }
   ++frames_;

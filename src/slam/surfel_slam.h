@@ -115,6 +115,23 @@ class SurfelSlam {
   // A Preprocessor with this SLAM's intrinsics and options, for process(frame, preprocessed, ...).
   Result<Preprocessor> make_preprocessor() const;
 
+  // What carries from one frame to the next besides the pool's surfels: with the pool, the whole
+  // state a checkpoint saves (pipeline/checkpoint.h).
+  struct State {
+    SE3 T_world_last;                     // the last good pose
+    SE3 last_motion;                      // the constant-velocity guess
+    int64_t frames = 0, fused_frames = 0, lost_frames = 0;
+    int64_t sweep_cursor = 0;             // SurfelFusion's lifetime sweep
+    int32_t predicted_frame = 0;          // the frame index and confidence gate of the last prediction
+    float predicted_min_confidence = 0;
+  };
+  State state() const;
+  // Continues from a checkpoint: the pool was filled first (SurfelPool::set_restored through
+  // pool_for_restore()); this takes `state` and renders the prediction the SLAM had then, so the
+  // next frame is tracked as it would have been without the interruption. Errors: the predictor's.
+  Status restore(const State& state);
+  SurfelPool& pool_for_restore() { return pool_; }
+
   const SurfelPool& pool() const { return pool_; }
   // The pool for the semantic layer (semantic/label_fusion.h, the dense CRF), which writes only the
   // label column between process() calls. Geometry must not be changed outside process(): the
@@ -159,6 +176,8 @@ class SurfelSlam {
   int64_t frames_ = 0;
   int64_t fused_frames_ = 0;
   int64_t lost_frames_ = 0;
+  int32_t predicted_frame_ = 0;          // arguments of the last predictor_.predict()
+  float predicted_min_confidence_ = 0;
 };
 
 // A view of the pool for io/ply_writer.h (colours from the packed column). The class columns are

@@ -58,7 +58,9 @@ TEST(CliOutputs, ARunNeverOverwritesAnEarlierRun) {
   // The second run into the same folder is refused before anything is touched, and so is its plan.
   r = cli(run);
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("holds an earlier run (trajectory.txt, map.ply, stats.json)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("holds an earlier run (trajectory.txt, map.ply, stats.json, checkpoint.efs, config.yaml)"),
+            std::string::npos)
+      << r.err;
   EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;
   EXPECT_EQ(read_file(fs::path(out) / "map.ply"), map_a);
   r = cli({"plan", "--source", "synthetic:?frames=4&size=160x120", "--out", out});
@@ -153,17 +155,22 @@ TEST(CliOutputs, SigkillLeavesAReadableTrajectoryAndRunningStats) {
 TEST(CliOutputs, AFullDiskEndsTheRunWithFailedStatsAndWholeFiles) {
   test::SmallDisk disk("cli-outputs-full", 512 * 1024);
   EF_SKIP_WITHOUT_SMALL_DISK(disk);
-  // The map (40 bytes a surfel, some 30,000 surfels: 1.2 MB) does not fit; the trajectory does.
+  // The final checkpoint and the map (60 and 40 bytes a surfel, some 30,000 surfels) do not fit; the
+  // trajectory does.
   const fs::path out = disk.dir() / "run";
   auto r = cli({"run", "--source", "synthetic:?frames=12&size=160x120", "--resolution", "160x120", "--no-labels",
                 "--quiet", "--out", out.string()});
   EXPECT_EQ(r.code, 1) << r.err;
-  EXPECT_NE(r.err.find("map.ply"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("checkpoint.efs: write failed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("map.ply: write failed"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
   const std::string stats = read_file(out / "stats.json");
   expect_whole_stats(stats);
+  // The state names the first output that failed.
   EXPECT_EQ(json_state(stats).rfind("failed: ", 0), 0u) << stats;
-  EXPECT_NE(json_state(stats).find("map.ply"), std::string::npos) << stats;
+  EXPECT_NE(json_state(stats).find("checkpoint.efs: write failed"), std::string::npos) << stats;
+  EXPECT_FALSE(fs::exists(out / "checkpoint.efs"));
+  EXPECT_FALSE(fs::exists(out / "checkpoint.efs.partial"));
   EXPECT_FALSE(fs::exists(out / "map.ply"));
   EXPECT_FALSE(fs::exists(out / "map.ply.partial"));
   auto traj = read_tum_trajectory((out / "trajectory.txt").string());
@@ -227,7 +234,7 @@ TEST(CliOutputs, ConvertStopsOnSigtermWithAWholeRecording) {
 // SIGKILL in the middle of `convert`: the .klg and the TUM folder read back, every frame whole.
 TEST(CliOutputs, ConvertKilledLeavesReadableRecordings) {
   const auto dir = test::scratch_dir("cli-outputs-convert-kill");
-  for (const std::string to : {"klg:" + (dir / "cut.klg").string(), "tum:" + (dir / "tum").string()}) {
+  for (const std::string& to : {"klg:" + (dir / "cut.klg").string(), "tum:" + (dir / "tum").string()}) {
     const fs::path list = to[0] == 'k' ? dir / "cut.klg" : dir / "tum" / "depth.txt";
     const pid_t child = ::fork();
     ASSERT_GE(child, 0);
@@ -262,6 +269,112 @@ TEST(CliOutputs, ConvertKilledLeavesReadableRecordings) {
     }
     EXPECT_EQ(read, n) << to;
   }
+}
+
+// A run continued from its checkpoint is the run that was never interrupted: the same trajectory
+// and map, byte for byte (labels included, in a deterministic run). A corrupt newest checkpoint is
+// named and the one before it used.
+TEST(CliOutputs, ResumeContinuesTheRunExactlyAndSurvivesACorruptCheckpoint) {
+  const auto dir = test::scratch_dir("cli-outputs-resume");
+  const std::string source = "synthetic:bedroom?frames=90&size=160x120";
+  const auto run = [&](const std::string& out, const std::vector<std::string>& more) {
+    std::vector<std::string> a = {"run", "--source", source, "--resolution", "160x120", "--deterministic",
+                                  "--label-every", "3", "--quiet", "--out", out};
+    a.insert(a.end(), more.begin(), more.end());
+    return cli(a);
+  };
+  const std::string whole = (dir / "whole").string(), parts = (dir / "parts").string();
+  auto r = run(whole, {});
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run(parts, {"--frames", "40"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(fs::path(parts) / "checkpoint.efs"));
+  EXPECT_TRUE(fs::exists(fs::path(parts) / "config.yaml"));
+
+  r = cli({"run", "--resume", parts, "--frames", "70", "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("resuming " + parts + " after frame 40"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(fs::path(parts) / "checkpoint.prev.efs"));  // frame 40's, kept
+  // The newest checkpoint (frame 70) damaged: the run goes on from frame 40's, and says so.
+  {
+    std::FILE* f = std::fopen((fs::path(parts) / "checkpoint.efs").c_str(), "r+b");
+    ASSERT_NE(f, nullptr);
+    std::fseek(f, 5000, SEEK_SET);
+    const int c = std::fgetc(f);
+    std::fseek(f, 5000, SEEK_SET);
+    std::fputc(c ^ 0x40, f);
+    std::fclose(f);
+  }
+  r = cli({"run", "--resume", parts, "--frames", "90", "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: " + parts + "/checkpoint.efs at byte"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("CRC-32 mismatch"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("after frame 40"), std::string::npos) << r.err;
+
+  EXPECT_EQ(read_file(fs::path(parts) / "trajectory.txt"), read_file(fs::path(whole) / "trajectory.txt"));
+  EXPECT_TRUE(read_file(fs::path(parts) / "map.ply") == read_file(fs::path(whole) / "map.ply"))
+      << "the resumed map differs from the uninterrupted one";
+  const std::string stats = read_file(fs::path(parts) / "stats.json");
+  EXPECT_EQ(json_number(stats, "frames"), 90);
+  EXPECT_EQ(json_number(stats, "resumed_at_frame"), 40);
+  EXPECT_EQ(json_number(stats, "cnn_frames"), json_number(read_file(fs::path(whole) / "stats.json"), "cnn_frames"));
+
+  // export: the checkpoint's map is the run's map.ply.
+  r = cli({"export", parts, "--out", (dir / "exported.ply").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto exported = read_surfel_ply((dir / "exported.ply").string());
+  auto written = read_surfel_ply((fs::path(parts) / "map.ply").string());
+  ASSERT_TRUE(exported.ok() && written.ok());
+  ASSERT_EQ(exported->size(), written->size());
+  EXPECT_EQ(exported->x, written->x);
+  EXPECT_EQ(exported->class_id, written->class_id);
+  EXPECT_EQ(exported->class_prob, written->class_prob);
+
+  // What --resume refuses.
+  r = cli({"run", "--resume", (dir / "nothing").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("not the folder of a run"), std::string::npos) << r.err;
+  r = cli({"run", "--resume", parts, "--out", whole});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("takes no --config, --out or --overwrite"), std::string::npos) << r.err;
+}
+
+// SIGKILL after a checkpoint, then --resume: the finished trajectory is the uninterrupted run's.
+TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
+  const auto dir = test::scratch_dir("cli-outputs-kill-resume");
+  const std::string frames = std::to_string(test::frames_native_or_emulated(600, 200));
+  const std::vector<std::string> run = {"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution",
+                                        "160x120", "--no-labels", "--quiet", "--frames", frames,
+                                        "--checkpoint-seconds", "0.3", "--stats-seconds", "0.1"};
+  const fs::path killed = dir / "killed";
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::freopen("/dev/null", "w", stdout);
+    std::freopen("/dev/null", "w", stderr);
+    auto a = run;
+    a.insert(a.end(), {"--out", killed.string()});
+    ::_exit(cli(a).code == 0 ? 100 : 101);
+  }
+  // Kill once stats.json reports a checkpoint.
+  for (int i = 0; i < 12000 && json_number(read_file(killed / "stats.json"), "checkpoints") < 1; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill (status " << status << ")";
+
+  auto r = cli({"run", "--resume", killed.string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto a = run;
+  a.insert(a.end(), {"--out", (dir / "whole").string()});
+  r = cli(a);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string resumed = read_file(killed / "trajectory.txt"), whole = read_file(dir / "whole" / "trajectory.txt");
+  EXPECT_GT(whole.size(), 1000u);
+  EXPECT_TRUE(resumed == whole) << "the resumed trajectory differs from the uninterrupted one";
+  EXPECT_EQ(json_state(read_file(killed / "stats.json")), "finished");
 }
 
 }  // namespace
