@@ -206,7 +206,7 @@ def main():
     if not (a.reuse and os.path.exists(os.path.join(run_dir, "trajectory.txt"))):
         times["run_s"] = run([a.edgefusion, "run", "--source", "7scenes:" + data, "--out", run_dir,
                               "--labels-out", os.path.join(run_dir, "labels"), "--labels-out-every", str(a.every),
-                              "--resolution", a.resolution, "--deterministic", "--quiet"] + model,
+                              "--resolution", a.resolution, "--deterministic", "--overwrite", "--quiet"] + model,
                              os.path.join(a.work, "run.log"))
     if not (a.reuse and os.path.isdir(os.path.join(seg_dir, "labels"))):
         times["segment_s"] = run([a.edgefusion, "segment", "--source", "7scenes:" + data, "--out", seg_dir,

@@ -42,7 +42,7 @@ def rss_mb(pid):
 
 def one_run(ef, source, frames, threads, out, extra):
     cmd = [ef, "run", "--source", source, "--frames", str(frames), "--threads", str(threads), "--out", out,
-           "--quiet"] + extra
+           "--overwrite", "--quiet"] + extra
     t0 = time.monotonic()
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     samples = []  # (seconds since start, RSS MB)

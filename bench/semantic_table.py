@@ -138,7 +138,7 @@ def main():
             d = os.path.join(out, method.lower())
             cmd = [ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
                    "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
-                   "--labels-final-out", os.path.join(d, "labels-end"), "--quiet"] + run_config + model + extra
+                   "--labels-final-out", os.path.join(d, "labels-end"), "--overwrite", "--quiet"] + run_config + model + extra
             # A run whose outputs exist from the same command line (and the same binary) is reused.
             marker = os.path.join(d, "done")
             key = " ".join(cmd) + f" [{os.path.getmtime(ef)}]"

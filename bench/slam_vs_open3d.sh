@@ -116,7 +116,7 @@ echo "== data: $data, $frames frames at $resolution, OMP_NUM_THREADS=1"
 
 echo "== 1/4 EdgeFusion: edgefusion run" >&2
 OMP_NUM_THREADS=1 "$edgefusion" run --threads 1 --source "7scenes:$data" --resolution "$resolution" --frames "$frames" \
-  --out "$out/ours" --quiet > "$out/ours.log" 2>&1 || { cat "$out/ours.log" >&2; die 1 "edgefusion run failed"; }
+  --out "$out/ours" --overwrite --quiet > "$out/ours.log" 2>&1 || { cat "$out/ours.log" >&2; die 1 "edgefusion run failed"; }
 [[ -f "$out/ours/stats.json" ]] || die 1 "edgefusion run wrote no $out/ours/stats.json"
 [[ -f "$out/ours/trajectory.txt" ]] || die 1 "edgefusion run wrote no $out/ours/trajectory.txt"
 

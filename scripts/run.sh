@@ -10,4 +10,6 @@ cmake -S . -B build/app -G Ninja -DCMAKE_BUILD_TYPE=Release -DEF_BUILD_TESTS=OFF
 cmake --build build/app --target edgefusion
 out="${EF_OUT:-out/run}"
 if [ $# -eq 0 ]; then set -- --source synthetic:; fi
-exec build/app/firmware_app/edgefusion run "$@" --out "$out"
+# The demo's own folder: each run replaces the one before (--overwrite). Runs of your own into
+# another folder are never overwritten without it.
+exec build/app/firmware_app/edgefusion run "$@" --out "$out" --overwrite

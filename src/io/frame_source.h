@@ -37,6 +37,18 @@ class FrameSource {
   // the stream, or an error naming the file, the frame and the fault. `out` keeps its buffers:
   // when they already have the source's size, no image is reallocated.
   virtual Result<bool> next(Frame& out) = 0;
+
+  // Passes over the next `n` frames without delivering them (a resumed run starts after the frames
+  // its checkpoint holds); returns how many there were (fewer at the end of the stream). Recordings
+  // with an index skip without decoding; the default reads them into `scratch`.
+  virtual Result<int64_t> skip(int64_t n, Frame& scratch) {
+    for (int64_t i = 0; i < n; ++i) {
+      auto got = next(scratch);
+      if (!got.ok()) return got.error();
+      if (!*got) return i;
+    }
+    return n;
+  }
 };
 
 // A parsed source URI: "scheme:path?key=value&key=value".

@@ -1,5 +1,6 @@
 #include "io/klg_format.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -127,6 +128,13 @@ class KlgSource final : public FrameSource {
   }
 
   const SourceInfo& info() const override { return info_; }
+
+  Result<int64_t> skip(int64_t n, Frame& /*scratch*/) override {
+    const int64_t left = static_cast<int64_t>(frames_.size() - std::min(next_, frames_.size()));
+    const int64_t skipped = std::min(std::max<int64_t>(n, 0), left);
+    next_ += static_cast<std::size_t>(skipped);
+    return skipped;
+  }
 
   Result<bool> next(Frame& out) override {
     if (next_ >= frames_.size()) return false;

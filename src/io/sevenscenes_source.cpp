@@ -1,5 +1,6 @@
 #include "io/sevenscenes_source.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -93,6 +94,13 @@ class SevenScenesSource final : public FrameSource {
   }
 
   const SourceInfo& info() const override { return info_; }
+
+  Result<int64_t> skip(int64_t n, Frame& /*scratch*/) override {
+    const int64_t left = static_cast<int64_t>(entries_.size() - std::min(next_, entries_.size()));
+    const int64_t skipped = std::min(std::max<int64_t>(n, 0), left);
+    next_ += static_cast<std::size_t>(skipped);
+    return skipped;
+  }
 
   Result<bool> next(Frame& out) override {
     if (next_ >= entries_.size()) return false;

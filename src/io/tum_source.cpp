@@ -146,6 +146,13 @@ class TumSource final : public FrameSource {
 
   const SourceInfo& info() const override { return info_; }
 
+  Result<int64_t> skip(int64_t n, Frame& /*scratch*/) override {
+    const int64_t left = static_cast<int64_t>(entries_.size() - std::min(next_, entries_.size()));
+    const int64_t skipped = std::min(std::max<int64_t>(n, 0), left);
+    next_ += static_cast<std::size_t>(skipped);
+    return skipped;
+  }
+
   Result<bool> next(Frame& out) override {
     if (next_ >= entries_.size()) return false;
     const std::size_t idx = next_;

@@ -41,14 +41,12 @@ Status FrontStage::allocate(PreparedFrame& slot) const {
 
 Status FrontStage::resume_at(int64_t frames) {
   if (capture_ == nullptr) {
-    for (int64_t i = 0; i < frames; ++i) {
-      auto got = source_.next(input_);
-      if (!got.ok()) return got.error();
-      if (!*got)
-        return error(ErrorCode::kInvalidArgument, source_.info().uri + " has " + std::to_string(i) +
-                                                      " frames; the checkpoint continues after frame " +
-                                                      std::to_string(frames) + " (a different recording?)");
-    }
+    auto skipped = source_.skip(frames, input_);
+    if (!skipped.ok()) return skipped.error();
+    if (*skipped < frames)
+      return error(ErrorCode::kInvalidArgument, source_.info().uri + " has " + std::to_string(*skipped) +
+                                                    " frames; the checkpoint continues after frame " +
+                                                    std::to_string(frames) + " (a different recording?)");
   }
   delivered_ = frames;
   return Status::success();
