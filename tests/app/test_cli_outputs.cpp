@@ -183,13 +183,14 @@ TEST(CliOutputs, AFullDiskEndsTheRunWithFailedStatsAndWholeFiles) {
 TEST(CliOutputs, ATrajectoryThatFillsTheDiskStopsTheRunWithWholeLines) {
   test::SmallDisk disk("cli-outputs-full-traj", 1024 * 1024);
   EF_SKIP_WITHOUT_SMALL_DISK(disk);
-  // Leave about 100 kB: stats.json and its 64 kB reserve, and some hundred trajectory lines.
+  // Leave about 84 kB: stats.json and its 64 kB reserve, the configuration, and some hundred
+  // trajectory lines.
   {
     std::FILE* f = std::fopen((disk.dir() / "filler").c_str(), "wb");
     ASSERT_NE(f, nullptr);
     const std::string block(4096, 'x');
     const auto free_bytes = [&] { return fs::space(disk.dir()).available; };
-    while (free_bytes() > 100 * 1024 && std::fwrite(block.data(), 1, block.size(), f) == block.size()) std::fflush(f);
+    while (free_bytes() > 84 * 1024 && std::fwrite(block.data(), 1, block.size(), f) == block.size()) std::fflush(f);
     std::fclose(f);
   }
   const fs::path out = disk.dir() / "run";
@@ -203,7 +204,7 @@ TEST(CliOutputs, ATrajectoryThatFillsTheDiskStopsTheRunWithWholeLines) {
   auto traj = read_tum_trajectory((out / "trajectory.txt").string());
   ASSERT_TRUE(traj.ok()) << to_string(traj.error());
   EXPECT_EQ(traj->cut_line, 0);
-  EXPECT_GT(traj->poses.size(), 100u);
+  EXPECT_GT(traj->poses.size(), 20u);
   EXPECT_LT(traj->poses.size(), 3000u);
   EXPECT_FALSE(fs::exists(out / "map.ply.partial"));
 }
@@ -342,10 +343,10 @@ TEST(CliOutputs, ResumeContinuesTheRunExactlyAndSurvivesACorruptCheckpoint) {
 // SIGKILL after a checkpoint, then --resume: the finished trajectory is the uninterrupted run's.
 TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
   const auto dir = test::scratch_dir("cli-outputs-kill-resume");
-  const std::string frames = std::to_string(test::frames_native_or_emulated(600, 200));
+  const std::string frames = std::to_string(test::frames_native_or_emulated(300, 150));
   const std::vector<std::string> run = {"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution",
                                         "160x120", "--no-labels", "--quiet", "--frames", frames,
-                                        "--checkpoint-seconds", "0.3", "--stats-seconds", "0.1"};
+                                        "--checkpoint-seconds", "0.3"};
   const fs::path killed = dir / "killed";
   const pid_t child = ::fork();
   ASSERT_GE(child, 0);
@@ -356,10 +357,10 @@ TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
     a.insert(a.end(), {"--out", killed.string()});
     ::_exit(cli(a).code == 0 ? 100 : 101);
   }
-  // Kill once stats.json reports a checkpoint.
-  for (int i = 0; i < 12000 && json_number(read_file(killed / "stats.json"), "checkpoints") < 1; ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  std::this_thread::sleep_for(std::chrono::milliseconds(120));
+  // Kill as soon as the first checkpoint is in place (renamed there whole), some 0.3 s into a run of
+  // about a second here: the frames after it are mapped again by the resumed run.
+  for (int i = 0; i < 60000 && !fs::exists(killed / "checkpoint.efs"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
   ::kill(child, SIGKILL);
   int status = 0;
   ASSERT_EQ(::waitpid(child, &status, 0), child);
