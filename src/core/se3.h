@@ -20,6 +20,14 @@ class SE3 {
   explicit SE3(const Eigen::Matrix4d& m) : SE3(Eigen::Matrix3d(m.topLeftCorner<3, 3>()), Eigen::Vector3d(m.topRightCorner<3, 1>())) {}
 
   static SE3 identity() { return SE3(); }
+  // The quaternion taken as it is, not normalised again: a pose read back bit for bit (a checkpoint,
+  // pipeline/checkpoint.h). `q` must be a unit quaternion.
+  static SE3 from_unit_quaternion(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) {
+    SE3 T;
+    T.q_ = q;
+    T.t_ = t;
+    return T;
+  }
 
   // Exponential map of a twist xi = (v, w): translation part v (metres), rotation part w (axis-angle, radians).
   static SE3 exp(const Vector6d& xi);

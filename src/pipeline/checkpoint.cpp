@@ -1,6 +1,7 @@
 #include "pipeline/checkpoint.h"
 
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <utility>
@@ -33,9 +34,15 @@ void put_pose(uint64_t* w, const SE3& T) {
   const double v[7] = {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()};
   for (int i = 0; i < 7; ++i) w[i] = word(v[i]);
 }
-SE3 get_pose(const uint64_t* w) {
+// Bit for bit as it was saved (SE3's constructor would normalise the quaternion again, moving its
+// last bits, and the resumed run would drift from the uninterrupted one by rounding). A stored
+// quaternion far from unit length is a corrupt file.
+Result<SE3> get_pose(const uint64_t* w) {
   const Eigen::Quaterniond q(as_double(w[6]), as_double(w[3]), as_double(w[4]), as_double(w[5]));
-  return SE3(q.normalized(), Eigen::Vector3d(as_double(w[0]), as_double(w[1]), as_double(w[2])));
+  const Eigen::Vector3d t(as_double(w[0]), as_double(w[1]), as_double(w[2]));
+  if (!(std::abs(q.norm() - 1.0) < 1e-6) || !t.allFinite())
+    return error(ErrorCode::kCorruptData, "a pose that is not a rigid transform");
+  return SE3::from_unit_quaternion(q, t);
 }
 
 // The pool's columns in file order: (pointer, bytes per surfel).
@@ -212,8 +219,11 @@ Status restore_checkpoint(const FoundCheckpoint& found, slam::SurfelSlam& slam, 
   uint64_t s[kSlamWords];
   EF_RETURN_IF_ERROR(r.read(kSlam, s, sizeof s));
   slam::SurfelSlam::State st;
-  st.T_world_last = get_pose(s + 0);
-  st.last_motion = get_pose(s + 7);
+  auto last = get_pose(s + 0), motion = get_pose(s + 7);
+  if (!last.ok() || !motion.ok())
+    return error(ErrorCode::kCorruptData, r.path() + ": section SLAM: " + (last.ok() ? motion : last).error().message);
+  st.T_world_last = *last;
+  st.last_motion = *motion;
   st.frames = static_cast<int64_t>(s[14]);
   st.fused_frames = static_cast<int64_t>(s[15]);
   st.lost_frames = static_cast<int64_t>(s[16]);

@@ -121,6 +121,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   // stats.json from the start, so that a run killed at any moment leaves one that says "running".
   // Its text's room is reserved now (a few kB; 64 kB holds 32 stages and 64 counters).
   p->stats_json_.reserve(64 * 1024);
+  // In the order of the StatsExtra indices (run_pipeline.h).
   p->stats_extra_ = {{"width", static_cast<double>(config.run.resolution.width)},
                      {"height", static_cast<double>(config.run.resolution.height)},
                      {"threads", static_cast<double>(config.pipeline.threads)},
@@ -148,8 +149,8 @@ void RunPipeline::update_counters() {
 }
 
 Status RunPipeline::write_stats(const char* state, int64_t frames, double seconds) {
-  stats_extra_[3].value = static_cast<double>(mapping_->slam().pool().size());  // "surfels"
-  stats_extra_[7].value = peak_rss_bytes();                                       // "peak_rss_bytes"
+  stats_extra_[kExtraSurfels].value = static_cast<double>(mapping_->slam().pool().size());
+  stats_extra_[kExtraPeakRss].value = peak_rss_bytes();
   write_stats_object(stats_json_, stats_, static_cast<uint64_t>(frames), seconds, stats_extra_, state);
   return stats_file_.write(stats_json_.str());
 }
@@ -172,25 +173,31 @@ Status RunPipeline::checkpoint(double seconds) {
   update_counters();
   EF_RETURN_IF_ERROR(write_checkpoint(out_folder_, meta, mapping_->slam(), stats_, checkpoint_names_));
   stats_.record_ms(st_checkpoint_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  stats_extra_[9].value += 1;  // "checkpoints"
+  stats_extra_[kExtraCheckpoints].value += 1;
   return Status::success();
 }
 
+bool RunPipeline::Every::due(std::chrono::steady_clock::time_point now) {
+  if (seconds <= 0 || now < next) return false;
+  next = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(seconds));
+  return true;
+}
+
+void RunPipeline::Every::start(double interval_s, std::chrono::steady_clock::time_point now) {
+  seconds = interval_s;
+  next = now;
+  (void)due(now);  // the first time one interval from now
+}
+
 Status RunPipeline::maybe_checkpoint() {
-  if (config_.output.checkpoint_seconds <= 0) return Status::success();
   const auto now = std::chrono::steady_clock::now();
-  if (now < next_checkpoint_) return Status::success();
-  next_checkpoint_ = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                               std::chrono::duration<double>(config_.output.checkpoint_seconds));
+  if (!checkpoint_every_.due(now)) return Status::success();
   return checkpoint(std::chrono::duration<double>(now - start_).count());
 }
 
 Status RunPipeline::maybe_write_stats() {
-  if (config_.output.stats_seconds <= 0) return Status::success();
   const auto now = std::chrono::steady_clock::now();
-  if (now < next_stats_) return Status::success();
-  next_stats_ = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                          std::chrono::duration<double>(config_.output.stats_seconds));
+  if (!stats_every_.due(now)) return Status::success();
   update_counters();
   return write_stats("running", mapping_->frames(), std::chrono::duration<double>(now - start_).count());
 }
@@ -247,10 +254,8 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
   RunOutcome outcome;
   const auto start = std::chrono::steady_clock::now();
   start_ = start;
-  next_stats_ = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                            std::chrono::duration<double>(config_.output.stats_seconds));
-  next_checkpoint_ = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                 std::chrono::duration<double>(config_.output.checkpoint_seconds));
+  stats_every_.start(config_.output.stats_seconds, start);
+  checkpoint_every_.start(config_.output.checkpoint_seconds, start);
   pin_current_thread_or_warn(config_.pipeline.mapping_cpu, "mapping");
   front_->start_capture();
   StageRing<PreparedFrame>& ring = *ring_;

@@ -167,7 +167,17 @@ class RunPipeline {
   RewrittenFile stats_file_;
   JsonWriter stats_json_;
   std::vector<StatsExtraField> stats_extra_;
-  std::chrono::steady_clock::time_point start_, next_stats_, next_checkpoint_;
+  // Something done every `seconds` of wall time (0: never), checked between frames.
+  struct Every {
+    double seconds = 0;
+    std::chrono::steady_clock::time_point next;
+    void start(double interval_s, std::chrono::steady_clock::time_point now);
+    bool due(std::chrono::steady_clock::time_point now);  // true at most once an interval
+  };
+  // stats_extra_'s fields that change during the run (the others are set once in create()).
+  enum StatsExtra { kExtraSurfels = 3, kExtraPeakRss = 7, kExtraCheckpoints = 9 };
+  std::chrono::steady_clock::time_point start_;
+  Every stats_every_, checkpoint_every_;
   std::optional<CheckpointMeta> resumed_;  // the checkpoint this run continues
   std::string resume_warning_;             // a corrupt newest checkpoint, when the one before was used
   std::string checkpoint_names_;           // scratch for write_checkpoint()
