@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <thread>
 
@@ -44,6 +45,27 @@ void expect_whole_stats(const std::string& text) {
   ASSERT_FALSE(text.empty());
   EXPECT_EQ(text.front(), '{');
   EXPECT_EQ(text.substr(text.size() - 2), "}\n") << text;
+}
+
+// Runs `args` through the command line in a child process of its own (its output discarded), waits
+// until `ready()` (polled every 2 ms, at most `limit_ms`), then `after_ms` more, and kills it with
+// SIGKILL. Returns the child's wait status: WIFSIGNALED when the kill came before the run's end.
+int run_and_kill(const std::vector<std::string>& args, const std::function<bool()>& ready, int after_ms,
+                 int limit_ms = 60000) {
+  const pid_t child = ::fork();
+  if (child < 0) return 0;
+  if (child == 0) {
+    std::freopen("/dev/null", "w", stdout);
+    std::freopen("/dev/null", "w", stderr);
+    ::_exit(cli(args).code == 0 ? 100 : 101);  // reached only when the kill came too late
+  }
+  for (int waited = 0; waited < limit_ms && !ready(); waited += 2)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  std::this_thread::sleep_for(std::chrono::milliseconds(after_ms));
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return status;
 }
 
 TEST(CliOutputs, ARunNeverOverwritesAnEarlierRun) {
@@ -112,28 +134,17 @@ TEST(CliOutputs, TimeInTheFolderGivesEachRunItsOwnAndALatestLink) {
 TEST(CliOutputs, SigkillLeavesAReadableTrajectoryAndRunningStats) {
   const auto dir = test::scratch_dir("cli-outputs-kill");
   const fs::path out = dir / "run";
-  const pid_t child = ::fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    // The run in a child process of its own, killed below: its exit is never reached.
-    std::freopen("/dev/null", "w", stdout);
-    std::freopen("/dev/null", "w", stderr);
-    const auto r = cli({"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution", "160x120",
-                        "--no-labels", "--quiet", "--stats-seconds", "0.2", "--sync-seconds", "0.5", "--out",
-                        out.string()});
-    ::_exit(r.code == 0 ? 100 : 101);
-  }
-  // Kill once stats.json has been rewritten during the run with some frames mapped.
+  // Killed once stats.json has been rewritten during the run with some frames mapped.
   double frames_in_stats = 0;
-  for (int i = 0; i < 3000 && frames_in_stats < 20; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    const std::string text = read_file(out / "stats.json");
-    if (!text.empty()) frames_in_stats = json_number(text, "frames");
-  }
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
-  ::kill(child, SIGKILL);
-  int status = 0;
-  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  const int status = run_and_kill(
+      {"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution", "160x120", "--no-labels",
+       "--quiet", "--stats-seconds", "0.2", "--sync-seconds", "0.5", "--out", out.string()},
+      [&] {
+        const std::string text = read_file(out / "stats.json");
+        if (!text.empty()) frames_in_stats = json_number(text, "frames");
+        return frames_in_stats >= 20;
+      },
+      150);
   ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill (status " << status << ")";
   ASSERT_GE(frames_in_stats, 20) << "stats.json was not rewritten during the run";
 
@@ -237,24 +248,14 @@ TEST(CliOutputs, ConvertKilledLeavesReadableRecordings) {
   const auto dir = test::scratch_dir("cli-outputs-convert-kill");
   for (const std::string& to : {"klg:" + (dir / "cut.klg").string(), "tum:" + (dir / "tum").string()}) {
     const fs::path list = to[0] == 'k' ? dir / "cut.klg" : dir / "tum" / "depth.txt";
-    const pid_t child = ::fork();
-    ASSERT_GE(child, 0);
-    if (child == 0) {
-      std::freopen("/dev/null", "w", stdout);
-      std::freopen("/dev/null", "w", stderr);
-      const auto r = cli({"convert", "--source", "synthetic:?frames=100000&size=160x120", "--to", to, "--quiet"});
-      ::_exit(r.code == 0 ? 100 : 101);
-    }
-    // Kill once some frames are written (the file or list has grown past its header).
-    for (int i = 0; i < 3000; ++i) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-      std::error_code ec;
-      if (fs::exists(list, ec) && fs::file_size(list, ec) > (to[0] == 'k' ? 200'000u : 500u)) break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(37));
-    ::kill(child, SIGKILL);
-    int status = 0;
-    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    // Killed once some frames are written (the file or list has grown past its header).
+    const int status = run_and_kill(
+        {"convert", "--source", "synthetic:?frames=100000&size=160x120", "--to", to, "--quiet"},
+        [&] {
+          std::error_code ec;
+          return fs::exists(list, ec) && fs::file_size(list, ec) > (to[0] == 'k' ? 200'000u : 500u);
+        },
+        37);
     ASSERT_TRUE(WIFSIGNALED(status)) << to << ": ended before the kill (status " << status << ")";
     auto src = open_source(to[0] == 'k' ? to + "?size=160x120" : to);
     ASSERT_TRUE(src.ok()) << to << ": " << to_string(src.error());
@@ -348,27 +349,16 @@ TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
                                         "160x120", "--no-labels", "--quiet", "--frames", frames,
                                         "--checkpoint-seconds", "0.3"};
   const fs::path killed = dir / "killed";
-  const pid_t child = ::fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    std::freopen("/dev/null", "w", stdout);
-    std::freopen("/dev/null", "w", stderr);
-    auto a = run;
-    a.insert(a.end(), {"--out", killed.string()});
-    ::_exit(cli(a).code == 0 ? 100 : 101);
-  }
-  // Kill as soon as the first checkpoint is in place (renamed there whole), some 0.3 s into a run of
-  // about a second here: the frames after it are mapped again by the resumed run.
-  for (int i = 0; i < 60000 && !fs::exists(killed / "checkpoint.efs"); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  ::kill(child, SIGKILL);
-  int status = 0;
-  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  // Killed as soon as the first checkpoint is in place (renamed there whole), some 0.3 s into a run
+  // of about a second here: the frames after it are mapped again by the resumed run.
+  auto a = run;
+  a.insert(a.end(), {"--out", killed.string()});
+  const int status = run_and_kill(a, [&] { return fs::exists(killed / "checkpoint.efs"); }, 0, 120000);
   ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill (status " << status << ")";
 
   auto r = cli({"run", "--resume", killed.string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
-  auto a = run;
+  a = run;
   a.insert(a.end(), {"--out", (dir / "whole").string()});
   r = cli(a);
   ASSERT_EQ(r.code, 0) << r.err;
