@@ -21,7 +21,8 @@ void print_main_help() {
       "Commands:\n"
       "  run       map a source: writes trajectory.txt, map.ply (when a map exists) and stats.json\n"
       "  eval      evaluate a trajectory (ate, rpe) or label images (labels)\n"
-      "  convert   turn any source into an ElasticFusion .klg log or a TUM RGB-D folder\n"
+      "  convert   turn any source into an ElasticFusion .klg log, a TUM RGB-D folder or an MCAP field log\n"
+      "  log       record a field log (MCAP) and nothing else: the low-power mode; map it later with run\n"
       "  segment   run the segmentation network on a source: class-id images per frame\n"
       "  model     inspect a network (info) or quantise an ONNX one to .efm (import)\n"
       "  plan      print the memory a run of a configuration allocates, part by part, against its budget\n"
@@ -54,8 +55,9 @@ int run_cli(int argc, char** argv) {
   if (cmd == "model") return cmd_model(argc, argv);
   if (cmd == "plan") return cmd_plan(argc, argv);
   if (cmd == "export") return cmd_export(argc, argv);
+  if (cmd == "log") return cmd_log(argc, argv);
   std::fprintf(stderr,
-               "edgefusion: unknown command '%s' (expected run, eval, convert, segment, model, plan, export, version; see --help)\n",
+               "edgefusion: unknown command '%s' (expected run, eval, convert, log, segment, model, plan, export, version; see --help)\n",
                cmd.c_str());
   return 2;
 }

@@ -1,7 +1,8 @@
-// `edgefusion convert`: any source to an ElasticFusion .klg log or a TUM RGB-D folder. This is how
-// synthetic sequences are exported for training and evaluation.
+// `edgefusion convert`: any source to an ElasticFusion .klg log, a TUM RGB-D folder or an MCAP field
+// log. This is how synthetic sequences are exported for training and evaluation.
 #include <csignal>
 #include <cstdio>
+#include <memory>
 #include <string>
 
 #include "args.h"
@@ -9,6 +10,7 @@
 #include "core/frame.h"
 #include "io/frame_resample.h"
 #include "io/klg_format.h"
+#include "io/mcap_log.h"
 #include "io/tum_writer.h"
 #include "core/progress.h"
 #include "sources/open_source.h"
@@ -20,21 +22,29 @@ namespace {
 
 const std::vector<OptionSpec> kConvertOptions = {
     {"--source", "URI", "frame source (see edgefusion run --help)", true},
-    {"--to", "TARGET", "klg:FILE (ElasticFusion log) or tum:DIR (TUM RGB-D folder)", true},
+    {"--to", "TARGET", "klg:FILE (ElasticFusion log), tum:DIR (TUM RGB-D folder) or mcap:FILE (field log)", true},
     {"--frames", "N", "convert at most N frames; default all"},
     {"--resolution", "WxH", "resample to this size first; default the source's own"},
-    {"--jpeg-quality", "Q", "klg: JPEG quality 1..100 for colour, 0 = raw RGB; default 90"},
-    {"--raw-depth", "", "klg: store depth uncompressed instead of zlib"},
+    {"--jpeg-quality", "Q", "klg, mcap: JPEG quality 1..100 for colour, 0 = raw RGB; default 90"},
+    {"--raw-depth", "", "klg, mcap: store depth uncompressed instead of zlib / PNG"},
     {"--quiet", "", "no progress line"},
 };
 
 // One target writer behind a common face.
 struct Target {
-  bool is_klg = false;
+  std::string kind;  // klg, tum, mcap
   KlgWriter klg;
   TumWriter tum;
-  Status write(const Frame& f) { return is_klg ? klg.write(f) : tum.write(f); }
-  Status close() { return is_klg ? klg.close() : tum.close(); }
+  McapFrameLog mcap;
+  std::unique_ptr<McapFrameLog::Encoder> encoder;
+  Status write(const Frame& f) {
+    if (kind == "mcap") return mcap.log_frame(f, *encoder);
+    return kind == "klg" ? klg.write(f) : tum.write(f);
+  }
+  Status close() {
+    if (kind == "mcap") return mcap.close();
+    return kind == "klg" ? klg.close() : tum.close();
+  }
 };
 
 }  // namespace
@@ -42,12 +52,13 @@ struct Target {
 int cmd_convert(int argc, char** argv) {
   constexpr const char* kCmd = "edgefusion convert";
   if (wants_help(argc, argv, 2)) {
-    std::printf("%s", format_help("edgefusion convert --source URI --to klg:FILE|tum:DIR [--frames N]",
+    std::printf("%s", format_help("edgefusion convert --source URI --to klg:FILE|tum:DIR|mcap:FILE [--frames N]",
                                   "Writes a source as an ElasticFusion .klg log (int32 frame count; per frame\n"
                                   "int64 timestamp in microseconds, zlib depth in millimetres, JPEG colour) or as a\n"
                                   "TUM RGB-D folder (rgb/, depth/ at 5000 per metre, rgb.txt, depth.txt,\n"
                                   "groundtruth.txt when poses exist, labels/ when the source has labels,\n"
-                                  "intrinsics.txt).\n"
+                                  "intrinsics.txt), or as an MCAP field log (PNG depth, JPEG colour, calibration,\n"
+                                  "reference poses; edgefusion run --help describes its topics).\n"
                                   "SIGINT / SIGTERM stop after the frame in hand and finish the target (exit 0).\n"
                                   "A target cut harder (kill -9, power) still reads back: each frame's data is\n"
                                   "written whole before the .klg frame count or the TUM lists name it.\n\n"
@@ -66,9 +77,9 @@ int cmd_convert(int argc, char** argv) {
   const auto colon = to.find(':');
   const std::string kind = colon == std::string::npos ? "" : to.substr(0, colon);
   const std::string target_path = colon == std::string::npos ? "" : to.substr(colon + 1);
-  if ((kind != "klg" && kind != "tum") || target_path.empty())
+  if ((kind != "klg" && kind != "tum" && kind != "mcap") || target_path.empty())
     return report_error(kCmd, error(ErrorCode::kInvalidArgument,
-                                    "--to: '" + to + "' is not klg:FILE or tum:DIR"), 2);
+                                    "--to: '" + to + "' is not klg:FILE, tum:DIR or mcap:FILE"), 2);
 
   auto source_or = open_source(args->get("--source"));
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
@@ -86,11 +97,21 @@ int cmd_convert(int argc, char** argv) {
   const bool resample = width != info.intrinsics.width || height != info.intrinsics.height;
 
   Target target;
-  target.is_klg = kind == "klg";
-  Status opened = target.is_klg
-                      ? target.klg.open(target_path, width, height,
-                                        KlgWriteOptions{!args->has("--raw-depth"), static_cast<int>(*quality)})
-                      : target.tum.open(target_path, info.intrinsics.scaled_to(width, height));
+  target.kind = kind;
+  Status opened;
+  if (kind == "klg") {
+    opened = target.klg.open(target_path, width, height,
+                             KlgWriteOptions{!args->has("--raw-depth"), static_cast<int>(*quality)});
+  } else if (kind == "tum") {
+    opened = target.tum.open(target_path, info.intrinsics.scaled_to(width, height));
+  } else {
+    McapLogOptions log;
+    log.depth = args->has("--raw-depth") ? "raw" : "png";
+    log.color = !info.has_color ? "none" : *quality == 0 ? "raw" : "jpeg";
+    log.jpeg_quality = *quality == 0 ? 90 : *quality;
+    opened = target.mcap.open(target_path, log, width, height, info.intrinsics.scaled_to(width, height));
+    if (opened.ok()) target.encoder = target.mcap.make_encoder();
+  }
   if (!opened.ok()) return report_error(kCmd, opened.error(), 1);
 
   Frame input, resized;

@@ -256,6 +256,8 @@ int cmd_run(int argc, char** argv) {
   if (files.wrote_trajectory) std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
   if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());
+  if (files.wrote_log)
+    std::printf("log: %s (%llu frames)\n", files.log.c_str(), static_cast<unsigned long long>(files.log_frames));
   // The final map's labels in the recording's frames: a second reading, after the outputs are safe.
   if (!config.labels.final_out.empty() && outcome.frames > 0) {
     std::fprintf(stderr, "%s: rendering the final map's labels into %s, every %d frames\n", kCmd,

@@ -4,7 +4,8 @@
 #                              and for live devices OpenNI2 (with its Dummy test device), libv4l2, libgpiod 1.6)
 #   install-deps.sh test       + test tools (GoogleTest, clang/libFuzzer, python3-open3d for the PLY check,
 #                              XNNPACK, pthreadpool, cpuinfo for bench_nn_conv's comparison, PyTorch, ONNX
-#                              and OpenCV for Python for the tests of models/)
+#                              and OpenCV for Python for the tests of models/, Node.js with the npm readers of
+#                              tests/npm: @mcap/core and Foxglove's ROS 2 message readers, for the field logs)
 #   install-deps.sh cross      + aarch64 cross compiler, arm64 multiarch libraries, qemu-user
 #   install-deps.sh models     base + what models/train.sh needs (PyTorch, ONNX, OpenCV for Python)
 # Idempotent: packages already present are skipped quickly by apt.
@@ -20,7 +21,7 @@ base_pkgs=(build-essential cmake ninja-build pkg-config git
            libopenni2-dev libv4l-dev libgpiod-dev libyaml-cpp-dev)
 test_pkgs=(libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev python3 python3-numpy python3-open3d
            libxnnpack-dev libpthreadpool-dev libcpuinfo-dev
-           python3-torch python3-onnx python3-opencv)
+           python3-torch python3-onnx python3-opencv nodejs)
 models_pkgs=(python3 python3-numpy python3-torch python3-onnx python3-opencv)
 cross_pkgs=(g++-aarch64-linux-gnu qemu-user
             libpng-dev:arm64 libjpeg62-turbo-dev:arm64 zlib1g-dev:arm64
@@ -38,12 +39,30 @@ case "$mode" in
   *) echo "install-deps.sh: unknown mode '$mode' (expected base, test, cross or models)" >&2; exit 2 ;;
 esac
 
+# npm comes with some nodejs builds (NodeSource's) and is Debian's own package otherwise.
+if [ "$mode" = test ] || [ "$mode" = cross ]; then
+  if ! command -v npm >/dev/null 2>&1; then pkgs+=(npm); fi
+fi
+
+# The test-side npm readers (tests/npm/package-lock.json), once apt's part is done.
+npm_readers() {
+  if [ "$mode" != test ] && [ "$mode" != cross ]; then return 0; fi
+  local dir
+  dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/npm"
+  if [ -d "$dir/node_modules/@mcap/core" ]; then return 0; fi
+  echo "install-deps.sh: npm ci in tests/npm (@mcap/core, @foxglove/rosmsg, @foxglove/rosmsg2-serialization)"
+  if ! (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error); then
+    echo "install-deps.sh: warning: npm ci failed (no registry?): the tests that read field logs with @mcap/core will skip" >&2
+  fi
+}
+
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-if [ ${#missing[@]} -eq 0 ]; then echo "install-deps.sh: all ${#pkgs[@]} packages present"; exit 0; fi
+if [ ${#missing[@]} -eq 0 ]; then echo "install-deps.sh: all ${#pkgs[@]} packages present"; npm_readers; exit 0; fi
 echo "install-deps.sh: installing ${#missing[@]} packages: ${missing[*]}"
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+npm_readers
 echo "install-deps.sh: done"

@@ -445,6 +445,44 @@ Status read_png_u8(const std::string& path, Image<uint8_t>& out) {
   return read_png_gray(path, PngTarget::kGray8, outs);
 }
 
+namespace {
+
+// libpng reads through a FILE*: fmemopen gives one over the bytes.
+Status decode_png_memory(const uint8_t* bytes, std::size_t size, PngTarget target, const PngOutputs& outs,
+                         const std::string& what) {
+  if (size < 8 || png_sig_cmp(bytes, 0, 8) != 0) return file_error(what, "not a PNG image (bad signature)");
+  FileCloser fc;
+  fc.f = ::fmemopen(const_cast<uint8_t*>(bytes), size, "rb");
+  if (!fc.f) return file_error(what, "cannot open the PNG bytes for reading", ErrorCode::kResourceExhausted);
+  unsigned char sig[8];
+  if (std::fread(sig, 1, 8, fc.f) != 8) return file_error(what, "truncated PNG");
+  char fault[300];
+  bool format_fault = false;
+  if (!png_read_stream(fc.f, target, outs, fault, sizeof(fault), format_fault))
+    return file_error(what, fault, format_fault ? ErrorCode::kUnsupported : ErrorCode::kCorruptData);
+  return Status();
+}
+
+}  // namespace
+
+Status decode_png_u16(const uint8_t* bytes, std::size_t size, Image<uint16_t>& out, const std::string& what) {
+  PngOutputs outs;
+  outs.gray16 = &out;
+  return decode_png_memory(bytes, size, PngTarget::kGray16, outs, what);
+}
+
+Status decode_png_u8(const uint8_t* bytes, std::size_t size, Image<uint8_t>& out, const std::string& what) {
+  PngOutputs outs;
+  outs.gray8 = &out;
+  return decode_png_memory(bytes, size, PngTarget::kGray8, outs, what);
+}
+
+Status decode_png_rgb(const uint8_t* bytes, std::size_t size, Image<Rgb8>& out, const std::string& what) {
+  PngOutputs outs;
+  outs.rgb = &out;
+  return decode_png_memory(bytes, size, PngTarget::kRgb8, outs, what);
+}
+
 Status write_png(const std::string& path, ImageView<const Rgb8> image) {
   return write_png_impl(path, image, PNG_COLOR_TYPE_RGB, 8);
 }

@@ -29,6 +29,11 @@ Status write_png(const std::string& path, ImageView<const Rgb8> image);
 Status write_png(const std::string& path, ImageView<const uint8_t> image);
 Status write_png(const std::string& path, ImageView<const uint16_t> image);
 
+// PNG decode in memory (the field log's images): `what` names the image in errors. The readers'
+// rules above apply (a wrong bit depth or channel count is an error).
+Status decode_png_u16(const uint8_t* bytes, std::size_t size, Image<uint16_t>& out, const std::string& what);
+Status decode_png_u8(const uint8_t* bytes, std::size_t size, Image<uint8_t>& out, const std::string& what);
+Status decode_png_rgb(const uint8_t* bytes, std::size_t size, Image<Rgb8>& out, const std::string& what);
 // JPEG encode/decode in memory (for .klg colour). quality 1..100.
 Status encode_jpeg(ImageView<const Rgb8> image, int quality, std::string& out_bytes);
 Status decode_jpeg(const uint8_t* bytes, std::size_t size, Image<Rgb8>& out, const std::string& what);

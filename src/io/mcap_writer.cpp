@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include <unistd.h>
 #include <zlib.h>
 
 namespace ef {
@@ -187,6 +188,8 @@ Status McapWriter::close_chunk() {
   chunk_empty_ = true;
   // What is written so far reaches the disk with the chunk: a cut keeps it.
   if (std::fflush(file_) != 0) return error(ErrorCode::kIoError, path_ + ": flush failed: " + std::strerror(errno));
+  if (options_.sync && ::fdatasync(::fileno(file_)) != 0)
+    return error(ErrorCode::kIoError, path_ + ": sync failed: " + std::strerror(errno));
   return Status::success();
 }
 
@@ -295,6 +298,8 @@ Status McapWriter::close() {
     if (s.ok()) s = put(footer.data(), footer.size());
     if (s.ok()) s = put(kMagic, sizeof kMagic);
   }
+  if (s.ok() && (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0))
+    s = error(ErrorCode::kIoError, path_ + ": sync failed: " + std::strerror(errno));
   const bool closed = std::fclose(file_) == 0;
   file_ = nullptr;
   if (s.ok() && !closed) return error(ErrorCode::kIoError, path_ + ": close failed: " + std::strerror(errno));

@@ -9,7 +9,9 @@
 //
 // Memory: the open chunk's bytes and its message index live in buffers sized at open() from
 // chunk_bytes (a message larger than that gets a chunk of its own, written straight through);
-// write() allocates nothing once the channels exist. Threads: one thread.
+// write() allocates nothing once the channels exist and every channel has had a chunk's worth of
+// messages (its index entries keep their capacity); closing a chunk builds its index records (a
+// few small allocations a chunk). Threads: one thread.
 #pragma once
 
 #include <cstddef>
@@ -28,6 +30,7 @@ struct McapWriterOptions {
   std::size_t chunk_bytes = 4u << 20;   // bytes a chunk may hold before it is closed
   std::string profile = "ros2";         // the Header's profile ("ros2": ros2msg schemas, cdr messages)
   std::string library = "edgefusion";
+  bool sync = false;  // fdatasync after each chunk, so a power cut loses at most the open chunk
 };
 
 class McapWriter {

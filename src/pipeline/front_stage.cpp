@@ -110,6 +110,12 @@ FrontStage::Step FrontStage::step(PreparedFrame& slot) {
     if (run_.realtime) pace(input_.timestamp);
   }
   slot.source_ms = ms_since(t_source);
+  slot.logged = log_ != nullptr;
+  if (log_ != nullptr) {
+    const SteadyClock::time_point t_log = SteadyClock::now();
+    (void)log_->log_frame(*captured, *log_encoder_);  // its first error is kept and reported at the end
+    slot.log_ms = ms_since(t_log);
+  }
 
   SteadyClock::time_point t0 = SteadyClock::now();
   resample_frame(*captured, slot.working);

@@ -33,6 +33,7 @@
 #include "core/frame.h"
 #include "core/result.h"
 #include "io/frame_source.h"
+#include "io/mcap_log.h"
 #include "pipeline/run_config.h"
 #include "pipeline/run_semantics.h"
 #include "slam/preprocess.h"
@@ -49,6 +50,8 @@ struct PreparedFrame {
   double source_ms = 0;                   // getting the frame (decoding, or waiting for the camera)
   double resample_ms = 0;                 // milliseconds each
   double preprocess_ms = 0;
+  double log_ms = 0;                      // the frame written to the field log (io/mcap_log.h)
+  bool logged = false;                    // the run has a field log: log_ms was measured
   bool end = false;                       // no frame: the stream ended, the stage was stopped or
   std::optional<Error> error;             // max_frames reached (error empty), or the source failed
 
@@ -98,6 +101,14 @@ class FrontStage {
     cnn_ = cnn;
     deterministic_ = deterministic;
   }
+  // The field log (null: none), borrowed: every frame the source delivers is written to it as it
+  // comes, before resampling (so the log replays the source itself). Set once before the first
+  // step(); makes the stage's encoder (allocates). A log that fails (a full disk) keeps its first
+  // error and writes no more; the run reports it with its outputs.
+  void set_log(McapFrameLog* log) {
+    log_ = log;
+    log_encoder_ = log != nullptr ? log->make_encoder() : nullptr;
+  }
   // Label updates the CNN was too busy to take (see above).
   uint64_t cnn_skipped() const { return cnn_skipped_.load(std::memory_order_relaxed); }
 
@@ -127,6 +138,8 @@ class FrontStage {
   const slam::SurfelSlam& slam_;
   RunSemantics* semantics_;
   CnnWorker* cnn_ = nullptr;
+  McapFrameLog* log_ = nullptr;
+  std::unique_ptr<McapFrameLog::Encoder> log_encoder_;
   bool deterministic_ = false;
   bool cnn_request_ = false;  // a label update is due and the CNN has not taken a frame for it yet
   std::atomic<uint64_t> cnn_skipped_{0};

@@ -26,7 +26,7 @@ Result<std::unique_ptr<MappingStage>> MappingStage::create(const slam::SurfelSla
     EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path, sync_seconds));
   int ids[std::size(kStageNames)];
   for (std::size_t i = 0; i < std::size(kStageNames); ++i) ids[i] = stats.add_stage(kStageNames[i]);
-  m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8]};
+  m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8], ids[9]};
   m->c_ = CounterIds{stats.add_counter("frames"), stats.add_counter("frames_with_pose"),
                      stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
                      stats.add_counter("fused_frames")};
@@ -38,7 +38,8 @@ Status MappingStage::step(const PreparedFrame& slot) {
   stats_.record_ms(st_.source, slot.source_ms);
   stats_.record_ms(st_.resample, slot.resample_ms);
   stats_.record_ms(st_.preprocess, slot.preprocess_ms);
-  stats_.record_ms(st_.front, slot.source_ms + slot.resample_ms + slot.preprocess_ms);
+  stats_.record_ms(st_.front, slot.source_ms + slot.resample_ms + slot.preprocess_ms + slot.log_ms);
+  if (slot.logged) stats_.record_ms(st_.log, slot.log_ms);
 
   const Frame& frame = slot.working;
   EF_RETURN_IF_ERROR(slam_.process(frame, *slot.pre, &result_));
@@ -55,6 +56,14 @@ Status MappingStage::step(const PreparedFrame& slot) {
     EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
   }
   EF_RETURN_IF_ERROR(trajectory_.write(frame.timestamp, result_.T_world_cam));
+  if (log_ != nullptr) {
+    // A failed log keeps its first error, reported with the outputs; the mapping goes on.
+    (void)log_->log_pose(frame.timestamp, result_.T_world_cam, *log_encoder_);
+    if (result_.lost != was_lost_)
+      (void)log_->log_text(frame.timestamp, result_.lost ? foxglove::LogLevel::kWarning : foxglove::LogLevel::kInfo,
+                           result_.lost ? line_ : "tracking regained", *log_encoder_);
+    was_lost_ = result_.lost;
+  }
   stats_.increment(c_.frames);
   stats_.increment(c_.with_pose, frame.has_pose ? 1 : 0);
   stats_.increment(c_.with_labels, frame.has_labels ? 1 : 0);

@@ -33,7 +33,7 @@ class MappingStage {
   // The stages it records into StageStats: the front step's (measured on its thread, carried in
   // the slot), the SLAM's steps and their sum, and the whole mapping step.
   static constexpr const char* kStageNames[] = {"source", "resample", "preprocess", "front_total", "track",
-                                                "fuse",   "predict",  "slam_total", "mapping_total"};
+                                                "fuse",   "predict",  "slam_total", "mapping_total", "log"};
 
   // options: the run's SLAM (the front step preprocesses, so the SLAM gets no preprocessor of its
   // own: options.own_preprocessor is set false here). working: intrinsics at the working
@@ -52,6 +52,12 @@ class MappingStage {
 
   // The CNN whose results on_frame() fuses (null without labels). Set once before the first step().
   void set_cnn(CnnWorker* cnn) { cnn_ = cnn; }
+  // The field log (null: none) and the mapping thread's encoder, both borrowed: each mapped frame's
+  // pose goes to it, and a line when tracking is lost or regained.
+  void set_log(McapFrameLog* log, McapFrameLog::Encoder* encoder) {
+    log_ = log;
+    log_encoder_ = encoder;
+  }
   // Maps one prepared frame (not an end marker). Errors: the SLAM's, the labels', a failed write of
   // the trajectory; the map keeps every frame mapped before.
   Status step(const PreparedFrame& slot);
@@ -79,13 +85,16 @@ class MappingStage {
   StageStats& stats_;
   RunSemantics* semantics_;
   CnnWorker* cnn_ = nullptr;
+  McapFrameLog* log_ = nullptr;
+  McapFrameLog::Encoder* log_encoder_ = nullptr;
+  bool was_lost_ = false;
   TumTrajectoryWriter trajectory_;
   slam::SlamFrameResult result_;
   int64_t frames_ = 0;
   double last_timestamp_ = 0;  // of the last mapped frame
   char line_[128] = {};  // the '# lost' comment, formatted without the heap
   struct StageIds {
-    int source, resample, preprocess, front, track, fuse, predict, slam, mapping;
+    int source, resample, preprocess, front, track, fuse, predict, slam, mapping, log;
   } st_{};
   struct CounterIds {
     int frames, with_pose, with_labels, lost, fused;

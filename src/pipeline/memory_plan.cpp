@@ -100,6 +100,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
         size_text(probe.width, probe.height) + " (" + frame_what + ")");
   }
 
+  if (!config.log.file.empty())
+    add("field log", McapFrameLog::bytes_for(config.log, probe.width, probe.height),
+        std::to_string(config.log.chunk_mb) + " MB chunk + the front's image encoder (" +
+            size_text(probe.width, probe.height) + ")");
+
   // SLAM (slam/surfel_slam.h) with the options the mapping stage gives it.
   const slam::SurfelSlamOptions slam = MappingStage::slam_options(config.mapping);
   const int levels = slam.preprocess.levels;

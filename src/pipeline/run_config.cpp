@@ -168,6 +168,7 @@ std::vector<ConfigKey> make_keys() {
   bind_table(k, "pipeline", "", "", PipelineOptions::table(), [](auto& c) -> auto& { return c.pipeline; });
   bind_table(k, "memory", "", "", MemoryOptions::table(), [](auto& c) -> auto& { return c.memory; });
   bind_table(k, "output", "", "", OutputOptions::table(), [](auto& c) -> auto& { return c.output; });
+  bind_table(k, "log", "", "", McapLogOptions::table(), [](auto& c) -> auto& { return c.log; });
   bind_table(k, "gpio", "led_", "status LED: ", GpioLineConfig::table(), [](auto& c) -> auto& { return c.gpio.led; });
   bind_table(k, "gpio", "button_", "start/stop button: ", GpioLineConfig::table(),
        [](auto& c) -> auto& { return c.gpio.button; });
@@ -268,6 +269,7 @@ Status RunConfig::validate(const std::vector<int>& cores) const {
   EF_RETURN_IF_ERROR(pipeline.validate());
   EF_RETURN_IF_ERROR(memory.validate());
   EF_RETURN_IF_ERROR(output.validate());
+  EF_RETURN_IF_ERROR(log.validate());
   EF_RETURN_IF_ERROR(gpio.validate());
 
   // Between the parts.

@@ -34,6 +34,7 @@
 
 #include "core/options.h"
 #include "core/result.h"
+#include "io/mcap_log.h"
 #include "platform/devices/gpio.h"
 #include "semantic/dense_crf.h"
 #include "semantic/label_fusion.h"
@@ -135,6 +136,7 @@ struct RunConfig {
   PipelineOptions pipeline;
   MemoryOptions memory;
   OutputOptions output;
+  McapLogOptions log;                       // the field log (io/mcap_log.h); log.file empty = none
   GpioOptions gpio;                         // front panel: status LED, start/stop button
 
   // Ok, or kInvalidArgument naming the key(s) and the value(s). `cores`: the cores this process may

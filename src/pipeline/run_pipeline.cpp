@@ -77,6 +77,24 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   auto front = FrontStage::create(config.run, config.pipeline, source, p->mapping_->slam(), p->semantics_.get());
   if (!front.ok()) return front.take_error();
   p->front_ = std::move(*front);
+  if (!config.log.file.empty()) {
+    // The field log of the source's own frames (io/mcap_log.h).
+    p->log_path_ = log_path_for(config.log.file, p->out_folder_, checkpoint ? checkpoint->meta.frames : -1);
+    std::error_code ec;
+    if (!config.output.overwrite && !checkpoint && std::filesystem::exists(p->log_path_, ec))
+      return error(ErrorCode::kInvalidArgument, p->log_path_ + ": a log is there already (never overwritten; give "
+                                                               "another log.file, or output.overwrite)");
+    p->log_ = std::make_unique<McapFrameLog>();
+    EF_RETURN_IF_ERROR(p->log_->open(p->log_path_, config.log, info.intrinsics.width, info.intrinsics.height,
+                                     info.intrinsics));
+    p->log_encoder_ = p->log_->make_encoder(/*with_images=*/false);
+    p->front_->set_log(p->log_.get());
+    p->mapping_->set_log(p->log_.get(), p->log_encoder_.get());
+    std::string start = "edgefusion run: mapping " + config.run.source + " at " +
+                        std::to_string(config.run.resolution.width) + "x" + std::to_string(config.run.resolution.height);
+    if (checkpoint) start += ", resumed after frame " + std::to_string(checkpoint->meta.frames);
+    (void)p->log_->log_text(0, foxglove::LogLevel::kInfo, start, *p->log_encoder_);
+  }
   if (p->semantics_ != nullptr) {
     const bool threaded = config.pipeline.threads >= 2;
     auto cnn = CnnWorker::create(*p->semantics_, config.run.resolution.width, config.run.resolution.height, threaded,
@@ -155,8 +173,20 @@ Status RunPipeline::write_stats(const char* state, int64_t frames, double second
   return stats_file_.write(stats_json_.str());
 }
 
+std::string RunPipeline::log_path_for(const std::string& file, const std::string& folder, int64_t resumed_at) {
+  std::filesystem::path p(file);
+  if (p.is_relative()) p = std::filesystem::path(folder) / p;
+  if (resumed_at < 0) return p.string();
+  char suffix[32];
+  std::snprintf(suffix, sizeof suffix, ".resume-%06lld", static_cast<long long>(resumed_at));
+  return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
+}
+
 Status RunPipeline::checkpoint(double seconds) {
   if (mapping_->frames() == 0) return Status::success();
+  // The field log's open chunk out with it: the log is readable up to the checkpoint's frames. A
+  // log that fails does not stop the checkpoint (its error is reported with the outputs).
+  if (log_ != nullptr) (void)log_->flush();
   const auto t0 = std::chrono::steady_clock::now();
   // The trajectory's lines of the frames it covers are on disk before the snapshot says so.
   auto bytes = mapping_->sync_trajectory();
@@ -331,6 +361,17 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
     if (semantics_ != nullptr) semantics_->add_label_columns(slam.pool(), cloud);
     if (Status s = write_surfel_ply(out.map, cloud, comment); !s.ok()) out.errors.push_back(s.error());
     else out.wrote_map = true;
+  }
+  if (log_ != nullptr) {
+    out.log = log_path_;
+    out.log_frames = log_->frames();
+    const char* how = outcome.error ? "failed" : (outcome.stopped || outcome.camera_lost) ? "stopped" : "finished";
+    (void)log_->log_text(mapping_->last_timestamp(), outcome.error ? foxglove::LogLevel::kError : foxglove::LogLevel::kInfo,
+                         std::string("edgefusion run: ") + how + " after " + std::to_string(outcome.frames) + " frames" +
+                             (outcome.error ? ": " + outcome.error->message : std::string()),
+                         *log_encoder_);
+    if (Status s = log_->close(); !s.ok()) out.errors.push_back(s.error());
+    else out.wrote_log = true;
   }
   // Last, so that it tells how the run and its outputs ended.
   std::string state = "finished";

@@ -87,7 +87,9 @@ struct RunOutcome {
 
 struct OutputFiles {
   std::string trajectory, map, stats;  // paths in the output folder
-  bool wrote_trajectory = false, wrote_map = false, wrote_stats = false;
+  std::string log;                     // the field log, when the run has one
+  bool wrote_trajectory = false, wrote_map = false, wrote_stats = false, wrote_log = false;
+  uint64_t log_frames = 0;
   std::vector<Error> errors;  // each output that failed, in order
 };
 
@@ -131,6 +133,13 @@ class RunPipeline {
   // newest checkpoint was corrupt and the one before it was used.
   const std::optional<CheckpointMeta>& resumed() const { return resumed_; }
   const std::string& resume_warning() const { return resume_warning_; }
+  // The field log's path ("" when the run has none): log.file in the run folder, or where it
+  // points; a resumed run writes a log of its own beside the first, named <stem>.resume-<frame>.mcap
+  // (an MCAP file is not continued after a cut: each session's log is whole on its own).
+  const std::string& log_path() const { return log_path_; }
+  // The field log's file for `file` (log.file), in `folder`, for a run resumed at `resumed_at`
+  // frames (-1: not resumed).
+  static std::string log_path_for(const std::string& file, const std::string& folder, int64_t resumed_at);
 
  private:
   RunPipeline(const RunConfig& config, FrameSource& source, StageStats& stats)
@@ -161,6 +170,9 @@ class RunPipeline {
   std::unique_ptr<MappingStage> mapping_;
   std::unique_ptr<FrontStage> front_;
   std::unique_ptr<StageRing<PreparedFrame>> ring_;  // front -> mapping
+  std::unique_ptr<McapFrameLog> log_;              // the field log, when log.file is set
+  std::unique_ptr<McapFrameLog::Encoder> log_encoder_;  // the mapping thread's (poses, lines)
+  std::string log_path_;
   std::size_t slot_bytes_ = 0;
   bool stop_sent_ = false;
   std::string out_folder_;

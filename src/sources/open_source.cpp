@@ -1,6 +1,7 @@
 #include "sources/open_source.h"
 
 #include "io/klg_format.h"
+#include "io/mcap_source.h"
 #include "io/sevenscenes_source.h"
 #include "io/tum_source.h"
 #include "platform/devices/cameras.h"
@@ -14,6 +15,7 @@ Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri_text) {
   if (uri.scheme == "tum") return open_tum(uri);
   if (uri.scheme == "7scenes") return open_7scenes(uri);
   if (uri.scheme == "klg") return open_klg(uri);
+  if (uri.scheme == "mcap") return open_mcap(uri);
   if (uri.scheme == "openni2" || uri.scheme == "v4l2") {
     auto camera = uri.scheme == "openni2" ? open_openni2_camera(uri) : open_v4l2_camera(uri);
     if (!camera.ok()) return camera.take_error();
@@ -57,7 +59,7 @@ bool is_camera_lost(const SourceInfo& source, const Error& err) {
 
 const char* source_uri_help() {
   return "synthetic:, synthetic:ROOM, synthetic:random?seed=N (query: seed, trajectory=loop|robot|inspect, frames, "
-         "size=WxH, noise=0|1, camera=ideal|kinect, layout=walls|island), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH], openni2:[DEVICE|FILE.oni] "
+         "size=WxH, noise=0|1, camera=ideal|kinect, layout=walls|island), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH], mcap:FILE (a field log; query: depth=TOPIC, color=TOPIC), openni2:[DEVICE|FILE.oni] "
          "(query: size=WxH, fps, timeout_ms, registration=0|1, fx, fy, cx, cy), v4l2:/dev/videoN (query: "
          "format=rgb|z16, size=WxH, fps, timeout_ms, depth_scale, fx, fy, cx, cy)";
 }

@@ -10,7 +10,7 @@
 namespace ef {
 
 // Schemes: synthetic:[ROOM|random][?seed=N&trajectory=loop|robot|inspect&frames=N], tum:DIR, 7scenes:DIR,
-// klg:FILE[?size=WxH], and the live cameras of platform/devices/cameras.h (which documents them):
+// klg:FILE[?size=WxH], mcap:FILE (io/mcap_source.h), and the live cameras of platform/devices/cameras.h (which documents them):
 //   openni2:[DEVICE|FILE.oni][?size=WxH&fps=N&timeout_ms=N&registration=0|1&fx=..&fy=..&cx=..&cy=..]
 //       an OpenNI2 RGB-D camera (empty: the first one; "Dummy": OpenNI2's software test device) or
 //       a .oni recording; depth in metres registered to colour where the device can.
