@@ -20,7 +20,7 @@ const opt::Table<McapLogOptions>& McapLogOptions::table() {
       {"jpeg_quality", "", "", &McapLogOptions::jpeg_quality, "", opt::between(1, 100), "JPEG quality of the colour"},
       {"png_level", "", "", &McapLogOptions::png_level, "", opt::between(1, 9),
        "zlib level of the PNG images (1 fastest, 9 smallest)"},
-      {"chunk_seconds", "", "", &McapLogOptions::chunk_seconds, "s", opt::between(0.01, 3600),
+      {"chunk_seconds", "", "--log-chunk-seconds", &McapLogOptions::chunk_seconds, "s", opt::between(0.01, 3600),
        "a chunk of the log is closed and written after this much time: what a power cut may lose"},
       {"chunk_mb", "", "", &McapLogOptions::chunk_mb, "MB", opt::between(1, 1024),
        "and when it holds this much (its buffer, in the memory plan)"},

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <string>
@@ -15,6 +16,7 @@
 
 #include "app/cli_test_util.h"
 #include "core/frame.h"
+#include "io/mcap_reader.h"
 #include "io/ply_writer.h"
 #include "io/trajectory_io.h"
 #include "sources/open_source.h"
@@ -66,6 +68,53 @@ int run_and_kill(const std::vector<std::string>& args, const std::function<bool(
   int status = 0;
   ::waitpid(child, &status, 0);
   return status;
+}
+
+// The npm readers of our field logs (tests/npm: @mcap/core and Foxglove's ROS 2 decoders), run on
+// `file`: their JSON line, or "" with the reason in `why` when node or the readers are missing (the
+// README's test command installs them) or the tests run under an emulator.
+std::string npm_mcap_summary(const std::string& file, std::string& why) {
+  const fs::path npm = fs::path(EF_SOURCE_DIR) / "tests" / "npm";
+  if (test::kUnderEmulator) {
+    why = "under qemu-user: node is a host program";
+    return "";
+  }
+  if (std::system("command -v node >/dev/null 2>&1") != 0) {
+    why = "node is not installed (scripts/install-deps.sh test installs it)";
+    return "";
+  }
+  if (!fs::exists(npm / "node_modules" / "@mcap" / "core")) {
+    why = "tests/npm/node_modules is missing (scripts/install-deps.sh test runs npm ci there)";
+    return "";
+  }
+  const std::string cmd = "node '" + (npm / "mcap_summary.mjs").string() + "' '" + file + "' 2>&1";
+  std::FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) {
+    why = "popen failed";
+    return "";
+  }
+  std::string out;
+  char buf[4096];
+  while (std::size_t n = std::fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  const int status = ::pclose(p);
+  EXPECT_EQ(status, 0) << out;
+  return out;
+}
+
+// The message count of `topic` in an npm summary's "counts" object (-1 when absent).
+long npm_count(const std::string& summary, const std::string& topic) {
+  const auto counts = summary.find("\"counts\":{");
+  if (counts == std::string::npos) return -1;
+  const auto end = summary.find('}', counts);
+  const auto at = summary.find("\"" + topic + "\":", counts);
+  if (at == std::string::npos || at > end) return -1;
+  return std::stol(summary.substr(at + topic.size() + 3));
+}
+
+// Our reader's message count of `topic`.
+long our_count(const McapReader& r, const std::string& topic) {
+  const McapChannel* c = r.channel(topic);
+  return c == nullptr ? -1 : static_cast<long>(c->messages);
 }
 
 TEST(CliOutputs, ARunNeverOverwritesAnEarlierRun) {
@@ -366,6 +415,120 @@ TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
   EXPECT_GT(whole.size(), 1000u);
   EXPECT_TRUE(resumed == whole) << "the resumed trajectory differs from the uninterrupted one";
   EXPECT_EQ(json_state(read_file(killed / "stats.json")), "finished");
+}
+
+// A run's field log replays through `run --source mcap:` to the same trajectory: depth is lossless,
+// and the colour logged as PNG is the recording's own (a .klg's decoded JPEG).
+TEST(CliOutputs, ARunsFieldLogReplaysToTheSameTrajectory) {
+  const auto dir = test::scratch_dir("cli-outputs-log-replay");
+  const std::string klg = (dir / "rec.klg").string();
+  auto r = cli({"convert", "--source", "synthetic:?frames=24&size=160x120", "--to", "klg:" + klg, "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const fs::path a = dir / "a", b = dir / "b";
+  r = cli({"run", "--source", "klg:" + klg + "?size=160x120", "--resolution", "160x120", "--no-labels", "--quiet",
+           "--log", "log.mcap", "--log-color", "png", "--out", a.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("log: " + (a / "log.mcap").string() + " (24 frames)"), std::string::npos) << r.out;
+  r = cli({"run", "--source", "mcap:" + (a / "log.mcap").string(), "--resolution", "160x120", "--no-labels",
+           "--quiet", "--out", b.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string ta = read_file(a / "trajectory.txt"), tb = read_file(b / "trajectory.txt");
+  EXPECT_GT(ta.size(), 500u);
+  EXPECT_TRUE(ta == tb) << "the replayed trajectory differs from the original";
+
+  McapReader log;
+  ASSERT_TRUE(log.open((a / "log.mcap").string()).ok());
+  EXPECT_TRUE(log.complete()) << log.warning();
+  EXPECT_EQ(our_count(log, "/camera/depth"), 24);
+  EXPECT_EQ(our_count(log, "/camera/color"), 24);
+  EXPECT_EQ(our_count(log, "/edgefusion/pose"), 24);
+  EXPECT_EQ(our_count(log, "/tf"), 24);
+  EXPECT_EQ(our_count(log, "/camera/calibration"), 1);
+  EXPECT_GE(our_count(log, "/log"), 2);  // started, finished
+
+  // A log file that is there already is never overwritten.
+  r = cli({"run", "--source", "klg:" + klg + "?size=160x120", "--resolution", "160x120", "--no-labels", "--quiet",
+           "--log", (a / "log.mcap").string(), "--out", (dir / "c").string()});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("a log is there already"), std::string::npos) << r.err;
+
+  std::string why;
+  const std::string npm = npm_mcap_summary((a / "log.mcap").string(), why);
+  if (npm.empty()) GTEST_SKIP() << "the @mcap/core check: " << why;
+  EXPECT_NE(npm.find("\"indexed\":true"), std::string::npos) << npm;
+  for (const char* topic : {"/camera/depth", "/camera/color", "/edgefusion/pose", "/tf", "/camera/calibration", "/log"})
+    EXPECT_EQ(npm_count(npm, topic), our_count(log, topic)) << topic << ": " << npm;
+  EXPECT_NE(npm.find("\"/camera/depth\":\"foxglove_msgs/msg/CompressedImage\""), std::string::npos) << npm;
+  EXPECT_NE(npm.find("\"/tf\":\"foxglove_msgs/msg/FrameTransform\""), std::string::npos) << npm;
+}
+
+// SIGKILL during a run with a field log: the log reads up to its last whole chunk, with our reader,
+// the mcap: source and @mcap/core's streaming reader alike.
+TEST(CliOutputs, SigkillLeavesAFieldLogReadableUpToItsLastChunk) {
+  const auto dir = test::scratch_dir("cli-outputs-log-kill");
+  const fs::path out = dir / "run";
+  const fs::path log_path = out / "log.mcap";
+  const int status = run_and_kill(
+      {"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution", "160x120", "--no-labels",
+       "--quiet", "--log", "log.mcap", "--log-chunk-seconds", "0.1", "--out", out.string()},
+      [&] {
+        std::error_code ec;
+        return fs::file_size(log_path, ec) > 400000 && !ec;
+      },
+      50);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill (status " << status << ")";
+  McapReader log;
+  ASSERT_TRUE(log.open(log_path.string()).ok());
+  EXPECT_FALSE(log.complete());
+  EXPECT_NE(log.warning().find("left out"), std::string::npos) << log.warning();
+  const long depth = our_count(log, "/camera/depth");
+  EXPECT_GT(depth, 3);
+  auto src = open_source("mcap:" + log_path.string());
+  ASSERT_TRUE(src.ok()) << to_string(src.error());
+  EXPECT_EQ((*src)->info().frame_count, depth);
+  EXPECT_FALSE((*src)->info().warning.empty());
+
+  std::string why;
+  const std::string npm = npm_mcap_summary(log_path.string(), why);
+  if (npm.empty()) GTEST_SKIP() << "the @mcap/core check: " << why;
+  EXPECT_NE(npm.find("\"indexed\":false"), std::string::npos) << npm;  // no summary: streamed
+  for (const char* topic : {"/camera/depth", "/edgefusion/pose", "/camera/calibration"})
+    EXPECT_EQ(npm_count(npm, topic), our_count(log, topic)) << topic << ": " << npm;
+}
+
+// `edgefusion log`: the low-power mode writes a log (and never over one), which replays and which
+// @mcap/core reads.
+TEST(CliOutputs, TheLoggingModeRecordsALogThatReplays) {
+  const auto dir = test::scratch_dir("cli-outputs-log-mode");
+  const std::string path = (dir / "field.mcap").string();
+  const std::vector<std::string> log = {"log", "--source", "synthetic:?frames=12&size=160x120", "--out", path,
+                                        "--quiet"};
+  auto r = cli(log);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("logged 12 frames (160x120)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ms per frame"), std::string::npos) << r.out;
+  r = cli(log);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("exists"), std::string::npos) << r.err;
+  auto again = log;
+  again.push_back("--overwrite");
+  ASSERT_EQ(cli(again).code, 0);
+
+  r = cli({"run", "--source", "mcap:" + path, "--resolution", "160x120", "--no-labels", "--quiet", "--out",
+           (dir / "mapped").string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("frames 12 "), std::string::npos) << r.out;
+
+  McapReader ours;
+  ASSERT_TRUE(ours.open(path).ok());
+  EXPECT_EQ(our_count(ours, "/camera/depth"), 12);
+  EXPECT_EQ(our_count(ours, "/camera/reference_pose"), 12);  // the synthetic source's ground truth
+  std::string why;
+  const std::string npm = npm_mcap_summary(path, why);
+  if (npm.empty()) GTEST_SKIP() << "the @mcap/core check: " << why;
+  for (const char* topic : {"/camera/depth", "/camera/color", "/camera/reference_pose", "/camera/calibration", "/log"})
+    EXPECT_EQ(npm_count(npm, topic), our_count(ours, topic)) << topic << ": " << npm;
+  EXPECT_NE(npm.find("\"k\":[131.25,0,79.5,"), std::string::npos) << npm;  // the calibration, decoded by Foxglove's reader
 }
 
 }  // namespace

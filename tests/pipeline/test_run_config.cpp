@@ -62,7 +62,7 @@ TEST(ConfigKeys, EveryKeyIsOneRowWithItsOwnNamesAndAValidDefault) {
   }
   // A flat name is never another key's path.
   for (const std::string& f : flats) EXPECT_EQ(paths.count(f), 0u) << f << " is a flat name and another key's path";
-  EXPECT_EQ(config_sections(), (std::vector<std::string>{"mapping", "labels", "crf", "pipeline", "memory", "output", "gpio"}));
+  EXPECT_EQ(config_sections(), (std::vector<std::string>{"mapping", "labels", "crf", "pipeline", "memory", "output", "log", "gpio"}));
 }
 
 // Every number key takes its bounds and refuses a value beyond each finite one, naming the range;
