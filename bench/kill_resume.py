@@ -15,13 +15,17 @@ checkpoints to lose; the product's default is 30 s).
                        than the first checkpoint, and no older than the interval plus its write
                        (its age: kill time - the file's modification time)
        map.ply         absent or whole (never half written)
+       log.mcap        the field log (run --log): @mcap/core (tests/npm/mcap_summary.mjs) reads it,
+                       through its index after SIGTERM (closed), streamed up to its last whole
+                       chunk after SIGKILL; its frames lag the trajectory's by at most one chunk
+                       (log.chunk_seconds of recording, 30 frames) plus the frames in flight
      then `edgefusion run --resume DIR` finishes the run: its ATE against the same poses, the
      difference to the reference's, and whether the trajectory is byte-identical to it.
 Prints one line per kill and a summary: the worst checkpoint age, the largest |ATE - reference|
 (the issue's acceptance: within 0.2 cm), how many resumed trajectories are byte-identical.
 
 Usage: /usr/bin/python3 bench/kill_resume.py [--kills 20] [--terms 5] [--seed 1] [--checkpoint-seconds 2]
-           [--data DIR] [--edgefusion BIN] [--work DIR]
+           [--data DIR] [--edgefusion BIN] [--work DIR] [--no-log]
 Exit status: 0 when every check held, 1 when one failed, 2 when the data or the binary is missing.
 """
 import argparse
@@ -86,6 +90,7 @@ def main():
                                                            os.path.join(REPO, "build", "release", "firmware_app",
                                                                         "edgefusion")))
     ap.add_argument("--work", default="")
+    ap.add_argument("--no-log", action="store_true", help="runs without a field log")
     a = ap.parse_args()
     if not os.path.isdir(a.data):
         print(f"kill_resume: SKIPPED: no 7-Scenes data at {a.data}", file=sys.stderr)
@@ -99,6 +104,13 @@ def main():
     os.makedirs(work, exist_ok=True)
     source = "7scenes:" + os.path.abspath(a.data)
     run_args = ["--source", source, "--checkpoint-seconds", str(a.checkpoint_seconds), "--quiet", "--overwrite"]
+    summary_js = os.path.join(REPO, "tests", "npm", "mcap_summary.mjs")
+    with_log = not a.no_log
+    if with_log and not os.path.isdir(os.path.join(REPO, "tests", "npm", "node_modules", "@mcap", "core")):
+        print("kill_resume: the field log check needs tests/npm's readers: (cd tests/npm && npm ci)", file=sys.stderr)
+        return 2
+    if with_log:
+        run_args += ["--log", "log.mcap"]
     cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?")
     print(f"machine: {cpu}, {os.cpu_count()} cores; data: {a.data} (real, 1000 frames); "
           f"checkpoint every {a.checkpoint_seconds} s; seed {a.seed}")
@@ -127,9 +139,9 @@ def main():
     plan = [(signal.SIGKILL, rng.uniform(0.5, 0.95 * total)) for _ in range(a.kills)] + \
            [(signal.SIGTERM, rng.uniform(0.5, 0.95 * total)) for _ in range(a.terms)]
     failures = []
-    worst_age, worst_date, identical, late = 0.0, 0.0, 0, 0
+    worst_age, worst_date, identical, late, worst_lag = 0.0, 0.0, 0, 0, 0
     print(f"{'#':>3} {'signal':7} {'at s':>6} {'frames':>6} {'poses':>6} {'state':9} {'ckpt age s':>10} "
-          f"{'resume s':>8} {'ATE cm':>7} {'dATE cm':>8} identical")
+          f"{'log frames':>10} {'resume s':>8} {'ATE cm':>7} {'dATE cm':>8} identical")
     for i, (sig, at) in enumerate(plan):
         d = os.path.join(work, f"k{i:02d}")
         shutil.rmtree(d, ignore_errors=True)
@@ -177,6 +189,24 @@ def main():
         for leftover in ("map.ply.partial",):
             if os.path.exists(os.path.join(d, leftover)) and sig == signal.SIGTERM:
                 fail.append(f"{leftover} left after SIGTERM")
+        log_frames = -1
+        if with_log:
+            lp = os.path.join(d, "log.mcap")
+            if not os.path.exists(lp):
+                fail.append("no log.mcap")
+            else:
+                out = subprocess.run(["node", summary_js, lp], capture_output=True, text=True)
+                if out.returncode != 0:
+                    fail.append(f"@mcap/core cannot read log.mcap: {(out.stderr or out.stdout).strip()[-200:]}")
+                else:
+                    js = json.loads(out.stdout)
+                    log_frames = js["counts"].get("/camera/depth", 0)
+                    if sig == signal.SIGTERM and not js["indexed"]:
+                        fail.append("log.mcap not closed after SIGTERM")
+                    lag = len(poses) - log_frames
+                    worst_lag = max(worst_lag, lag)
+                    if lag > 40:
+                        fail.append(f"log.mcap holds {log_frames} frames, the trajectory {len(poses)}")
         # Resume (from the checkpoint; without one, a kill before the first: the run starts over).
         t1 = time.monotonic()
         if os.path.exists(ckpt) or os.path.exists(os.path.join(d, "checkpoint.prev.efs")):
@@ -196,7 +226,7 @@ def main():
                 fail.append(f"ATE {ate:.3f} cm, {date:+.3f} from the reference")
             same = open(os.path.join(d, "trajectory.txt")).read() == ref_traj
             identical += same
-        print(f"{i:>3} {name:7} {at:6.1f} {frames:6d} {len(poses):6d} {state:9} {age:10.2f} {resume_s:8.1f} "
+        print(f"{i:>3} {name:7} {at:6.1f} {frames:6d} {len(poses):6d} {state:9} {age:10.2f} {log_frames:10d} {resume_s:8.1f} "
               f"{ate:7.3f} {date:+8.3f} {'yes' if same else 'no'}" + ("" if not fail else "   FAIL: " + "; ".join(fail)))
         if fail:
             failures.append(i)
@@ -207,6 +237,8 @@ def main():
           f"not counted); checkpoint age at most {worst_age:.2f} s "
           f"(interval {a.checkpoint_seconds} s); |ATE - reference| at most {worst_date:.3f} cm (goal 0.2); "
           f"{identical} of {n} resumed trajectories byte-identical to the uninterrupted run; "
+          + (f"field log read by @mcap/core after every interruption, at most {worst_lag} frames behind the "
+             f"trajectory; " if with_log else "") +
           f"{len(failures)} failed")
     if not a.work:
         shutil.rmtree(work, ignore_errors=True)

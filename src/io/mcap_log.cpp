@@ -50,13 +50,18 @@ void depth_to_millimetres(const Image<float>& depth, uint16_t* dst) {
 
 McapFrameLog::~McapFrameLog() { (void)close(); }
 
-std::size_t McapFrameLog::bytes_for(const McapLogOptions& options, int width, int height) {
+std::size_t McapFrameLog::encoder_bytes_for(int width, int height) {
+  // Millimetres, the PNG output and the message (both up to a raw colour image), the PNG encoder's
+  // rows and zlib's state (about 268 kB at the default window and level 1).
   const std::size_t px = static_cast<std::size_t>(width) * height;
-  // The chunk buffer; per encoder: millimetres, the PNG output and the message (both up to a raw
-  // colour image), the PNG encoder's rows and zlib's state (about 268 kB at level 1).
-  const std::size_t encoder = px * 2 + 2 * (PngEncoder::bytes_for(width, height, 3) + 256) + 2 * width * 3 + 268000;
-  // One image encoder (the front's) and a small one for poses and lines (the mapping thread's).
-  return static_cast<std::size_t>(options.chunk_mb) * 1000000 + encoder + 4096;
+  return px * 2 + 2 * (PngEncoder::bytes_for(width, height, 3) + 256) + 2 * static_cast<std::size_t>(width) * 3 +
+         268000;
+}
+
+std::size_t McapFrameLog::bytes_for(const McapLogOptions& options, int width, int height, int label_width,
+                                    int label_height) {
+  const std::size_t mapping = label_width > 0 ? encoder_bytes_for(label_width, label_height) : 4096;
+  return static_cast<std::size_t>(options.chunk_mb) * 1000000 + encoder_bytes_for(width, height) + mapping;
 }
 
 Status McapFrameLog::open(const std::string& path, const McapLogOptions& options, int width, int height,
@@ -113,15 +118,19 @@ Status McapFrameLog::open(const std::string& path, const McapLogOptions& options
   return Status::success();
 }
 
-std::unique_ptr<McapFrameLog::Encoder> McapFrameLog::make_encoder(bool with_images) const {
+std::unique_ptr<McapFrameLog::Encoder> McapFrameLog::make_encoder(bool with_images, int width, int height) const {
+  if (width <= 0 || height <= 0) {
+    width = width_;
+    height = height_;
+  }
   auto e = std::make_unique<Encoder>();
   if (!with_images) {
     e->message.reserve(4096);  // poses and status lines
     return e;
   }
-  e->png = std::make_unique<PngEncoder>(width_, height_, 3, static_cast<int>(options_.png_level));
-  e->millimetres.resize(static_cast<std::size_t>(width_) * height_);
-  const std::size_t most = PngEncoder::bytes_for(width_, height_, 3) + 256;
+  e->png = std::make_unique<PngEncoder>(width, height, 3, static_cast<int>(options_.png_level));
+  e->millimetres.resize(static_cast<std::size_t>(width) * height);
+  const std::size_t most = PngEncoder::bytes_for(width, height, 3) + 256;
   e->image.reserve(most);
   e->message.reserve(most);
   return e;

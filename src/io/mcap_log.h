@@ -77,16 +77,22 @@ class McapFrameLog {
   // Creates the file (errors: the file's), its schemas and channels; frames of width x height.
   Status open(const std::string& path, const McapLogOptions& options, int width, int height,
               const Intrinsics& intrinsics);
-  // An encoder for one thread (allocates). Without images it can log poses and text only.
-  std::unique_ptr<Encoder> make_encoder(bool with_images = true) const;
-  // Bytes open() and one make_encoder() allocate (the memory plan's line).
-  static std::size_t bytes_for(const McapLogOptions& options, int width, int height);
+  // An encoder for one thread (allocates): for images up to width x height (0: the log's frame
+  // size), or without images (poses and text only).
+  std::unique_ptr<Encoder> make_encoder(bool with_images = true, int width = 0, int height = 0) const;
+  // Bytes of one encoder for images up to width x height.
+  static std::size_t encoder_bytes_for(int width, int height);
+  // Bytes open() allocates (the chunk buffer) and a run's encoders: the front's for the frames of
+  // width x height, and the mapping thread's, for label images of label_width x label_height (0 x 0:
+  // no labels, poses and text only). The memory plan's line.
+  static std::size_t bytes_for(const McapLogOptions& options, int width, int height, int label_width = 0,
+                               int label_height = 0);
 
   // The source's frame: depth, colour (when due and present), reference pose (when it has one).
   Status log_frame(const Frame& frame, Encoder& enc);
   // The mapper's pose of the frame at `timestamp`, as PoseInFrame and FrameTransform.
   Status log_pose(double timestamp, const SE3& T_wc, Encoder& enc);
-  // A class-id image the CNN produced for the frame at `timestamp`.
+  // A class-id image the CNN produced for the frame at `timestamp` (an encoder with images of its size).
   Status log_labels(double timestamp, ImageView<const uint8_t> labels, Encoder& enc);
   Status log_text(double timestamp, foxglove::LogLevel level, std::string_view text, Encoder& enc);
   // Closes the open chunk now (everything so far is readable after a cut).

@@ -101,9 +101,9 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
   }
 
   if (!config.log.file.empty())
-    add("field log", McapFrameLog::bytes_for(config.log, probe.width, probe.height),
+    add("field log", McapFrameLog::bytes_for(config.log, probe.width, probe.height, labels ? w : 0, labels ? h : 0),
         std::to_string(config.log.chunk_mb) + " MB chunk + the front's image encoder (" +
-            size_text(probe.width, probe.height) + ")");
+            size_text(probe.width, probe.height) + ")" + (labels ? " + the labels' (" + size_text(w, h) + ")" : ""));
 
   // SLAM (slam/surfel_slam.h) with the options the mapping stage gives it.
   const slam::SurfelSlamOptions slam = MappingStage::slam_options(config.mapping);

@@ -87,7 +87,10 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
     p->log_ = std::make_unique<McapFrameLog>();
     EF_RETURN_IF_ERROR(p->log_->open(p->log_path_, config.log, info.intrinsics.width, info.intrinsics.height,
                                      info.intrinsics));
-    p->log_encoder_ = p->log_->make_encoder(/*with_images=*/false);
+    // The mapping thread's: poses and lines, and the CNN's class ids at the working size.
+    p->log_encoder_ = p->log_->make_encoder(/*with_images=*/p->semantics_ != nullptr, config.run.resolution.width,
+                                            config.run.resolution.height);
+    if (p->semantics_ != nullptr) p->semantics_->set_log(p->log_.get(), p->log_encoder_.get());
     p->front_->set_log(p->log_.get());
     p->mapping_->set_log(p->log_.get(), p->log_encoder_.get());
     std::string start = "edgefusion run: mapping " + config.run.source + " at " +

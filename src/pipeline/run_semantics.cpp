@@ -224,6 +224,7 @@ Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, bool w
     }
     stats_->record_ms(st_segment_, job->cnn.segment_ms);  // measured on the CNN's thread
     stats_->increment(c_cnn_frames_);
+    log_labels(*job);
     if (job->fuse) status = fuse_job(*job, frame_number, &working, &result, slam);
     if (job->number == frame_number && status.ok()) {
       own = job;
@@ -260,11 +261,18 @@ Status RunSemantics::drain(int64_t last_frame, slam::SurfelSlam& slam, CnnWorker
     if (status.ok()) {
       stats_->record_ms(st_segment_, job->cnn.segment_ms);
       stats_->increment(c_cnn_frames_);
+      log_labels(*job);
       if (job->fuse) status = fuse_job(*job, last_frame + 1, nullptr, nullptr, slam);
     }
     worker.release(job);
     if (!status.ok()) return status;
   }
+}
+
+void RunSemantics::log_labels(const CnnJob& job) {
+  // A failed log keeps its first error (reported with the run's outputs); labelling goes on.
+  if (log_ != nullptr && job.cnn.valid && !job.cnn.labels.empty())
+    (void)log_->log_labels(job.frame.timestamp, job.cnn.labels.cview(), *log_encoder_);
 }
 
 Status RunSemantics::run_crf(slam::SurfelSlam& slam) {

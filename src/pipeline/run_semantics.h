@@ -35,6 +35,7 @@
 #include "core/image.h"
 #include "core/intrinsics.h"
 #include "core/result.h"
+#include "io/mcap_log.h"
 #include "core/stage_stats.h"
 #include "io/ply_writer.h"
 #include "pipeline/run_config.h"
@@ -147,7 +148,15 @@ class RunSemantics {
   // Bytes of what late results need (late_fusion_bytes_for).
   std::size_t late_fusion_bytes() const { return label_view_->bytes() + poses_.size() * sizeof(PoseRecord); }
 
+  // The field log (null: none) and the mapping thread's encoder (images of the working size), both
+  // borrowed: each CNN result taken is written as a class-id PNG at its frame's timestamp.
+  void set_log(McapFrameLog* log, McapFrameLog::Encoder* encoder) {
+    log_ = log;
+    log_encoder_ = encoder;
+  }
+
  private:
+  void log_labels(const CnnJob& job);  // into the field log, when there is one
   RunSemantics() = default;
   Status write_rendering(const Frame& working, const CnnResult& cnn, const slam::SlamFrameResult& result,
                          slam::SurfelSlam& slam);
@@ -170,6 +179,8 @@ class RunSemantics {
   std::optional<slam::ModelPredictor> label_view_;  // index maps of late results
   std::vector<PoseRecord> poses_;            // kPoseHistory, by frame number modulo
   FusedResult last_fused_;
+  McapFrameLog* log_ = nullptr;
+  McapFrameLog::Encoder* log_encoder_ = nullptr;
   Image<uint8_t> rendered_;                  // the map's labels at the working size
   std::vector<uint8_t> class_id_;            // map.ply columns, one per pool slot
   std::vector<float> class_prob_;

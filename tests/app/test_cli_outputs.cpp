@@ -452,10 +452,23 @@ TEST(CliOutputs, ARunsFieldLogReplaysToTheSameTrajectory) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("a log is there already"), std::string::npos) << r.err;
 
+  // With labels: each CNN result's class ids are in the log too.
+  const fs::path c = dir / "labelled";
+  r = cli({"run", "--source", "synthetic:?frames=21&size=160x120", "--resolution", "160x120", "--quiet", "--log",
+           "log.mcap", "--out", c.string()});
+  ASSERT_EQ(r.code, 0) << r.err;
+  McapReader labelled;
+  ASSERT_TRUE(labelled.open((c / "log.mcap").string()).ok());
+  const double cnn_frames = json_number(read_file(c / "stats.json"), "cnn_frames");
+  EXPECT_GE(cnn_frames, 1);
+  EXPECT_EQ(our_count(labelled, "/edgefusion/labels"), static_cast<long>(cnn_frames));
+
   std::string why;
   const std::string npm = npm_mcap_summary((a / "log.mcap").string(), why);
   if (npm.empty()) GTEST_SKIP() << "the @mcap/core check: " << why;
   EXPECT_NE(npm.find("\"indexed\":true"), std::string::npos) << npm;
+  const std::string npm_labelled = npm_mcap_summary((c / "log.mcap").string(), why);
+  EXPECT_EQ(npm_count(npm_labelled, "/edgefusion/labels"), static_cast<long>(cnn_frames)) << npm_labelled;
   for (const char* topic : {"/camera/depth", "/camera/color", "/edgefusion/pose", "/tf", "/camera/calibration", "/log"})
     EXPECT_EQ(npm_count(npm, topic), our_count(log, topic)) << topic << ": " << npm;
   EXPECT_NE(npm.find("\"/camera/depth\":\"foxglove_msgs/msg/CompressedImage\""), std::string::npos) << npm;
