@@ -246,9 +246,11 @@ Status McapFrameLog::close() {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!open_) return Status::success();
   open_ = false;
-  Status s = writer_.close();
-  if (failed_) return *failed_;
-  return s;
+  if (failed_) {
+    writer_.abandon();  // the file ends after its last whole chunk
+    return *failed_;
+  }
+  return writer_.close();
 }
 
 uint64_t McapFrameLog::frames() const {

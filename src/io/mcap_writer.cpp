@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include <stdio_ext.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -196,6 +197,13 @@ Status McapWriter::close_chunk() {
 Status McapWriter::flush() {
   if (file_ == nullptr) return Status::success();
   return close_chunk();
+}
+
+void McapWriter::abandon() {
+  if (file_ == nullptr) return;
+  __fpurge(file_);  // what the failed write left buffered is not written after it
+  std::fclose(file_);
+  file_ = nullptr;
 }
 
 Status McapWriter::close() {

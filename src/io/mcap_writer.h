@@ -51,6 +51,9 @@ class McapWriter {
   // Closes the open chunk now (a checkpoint of the log: everything so far is readable after a cut).
   Status flush();
   Status close();
+  // Closes the file after a failed write (a full disk) without writing anything more: what it
+  // holds stays a log cut after its last whole chunk (readers read up to it).
+  void abandon();
 
   uint64_t messages() const { return message_count_; }
   bool is_open() const { return file_ != nullptr; }

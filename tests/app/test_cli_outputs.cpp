@@ -417,6 +417,30 @@ TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
   EXPECT_EQ(json_state(read_file(killed / "stats.json")), "finished");
 }
 
+// A full disk while a run logs: the log ends at its last whole chunk and says where it failed; the
+// run reports it and stats.json says failed.
+TEST(CliOutputs, AFullDiskCutsTheFieldLogAfterAWholeChunkAndTheRunSaysSo) {
+  test::SmallDisk disk("cli-outputs-log-full", 512 * 1024);
+  EF_SKIP_WITHOUT_SMALL_DISK(disk);
+  const fs::path out = disk.dir() / "run";
+  auto r = cli({"run", "--source", "synthetic:?frames=60&size=160x120", "--resolution", "160x120", "--no-labels",
+                "--quiet", "--checkpoint-seconds", "0", "--log", "log.mcap", "--log-chunk-seconds", "0.1",
+                "--out", out.string()});
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("log.mcap"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
+  const std::string stats = read_file(out / "stats.json");
+  expect_whole_stats(stats);
+  EXPECT_EQ(json_state(stats).rfind("failed: ", 0), 0u) << stats;
+  McapReader log;
+  ASSERT_TRUE(log.open((out / "log.mcap").string()).ok());
+  EXPECT_FALSE(log.complete());
+  EXPECT_GT(our_count(log, "/camera/depth"), 3);
+  EXPECT_LT(our_count(log, "/camera/depth"), 60);
+  std::string buf;
+  for (const McapMessageRef& m : log.messages()) ASSERT_TRUE(log.read(m, buf).ok());
+}
+
 // A run's field log replays through `run --source mcap:` to the same trajectory: depth is lossless,
 // and the colour logged as PNG is the recording's own (a .klg's decoded JPEG).
 TEST(CliOutputs, ARunsFieldLogReplaysToTheSameTrajectory) {
