@@ -29,15 +29,8 @@ import tempfile
 import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def ate_cm(ef, gt, traj):
-    out = subprocess.run([ef, "eval", "ate", gt, traj], capture_output=True, text=True, check=True)
-    for line in out.stdout.splitlines():
-        k, v = line.split()
-        if k == "ate_rmse_m":
-            return 100.0 * float(v)
-    raise RuntimeError("no ate_rmse_m")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from kill_resume import ate_cm  # noqa: E402  (the same `edgefusion eval ate` reading)
 
 
 def timed(cmd):
@@ -139,6 +132,14 @@ def main():
         print(f"at 30 Hz (--realtime), 640x480: logging mode CPU {1000 * c1 / logged:.1f} ms/frame ({w1:.1f} s wall), "
               f"full pipeline CPU {1000 * c2 / frames:.1f} ms/frame ({w2:.1f} s wall): ratio {c2 / c1:.1f}x")
         print("  " + out1.strip())
+        # Cheaper logs: depth not encoded (16UC1, 3x the bytes), and colour left out too (the
+        # source's own cost, plus writing depth).
+        for extra in (["--log-depth", "raw"], ["--log-depth", "raw", "--log-color", "none"]):
+            os.remove(lg)
+            w, c, out = timed([ef, "log", "--source", source, "--out", lg, "--realtime", "--quiet"] + extra)
+            n = int(out.split()[1])
+            print(f"  logging mode {' '.join(extra)}: CPU {1000 * c / n:.1f} ms/frame, "
+                  f"{os.path.getsize(lg) / 1e6 / n * 1000:.0f} kB/frame ({w:.1f} s wall)")
     if not a.work:
         shutil.rmtree(work, ignore_errors=True)
     return 1 if failed else 0

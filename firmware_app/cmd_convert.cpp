@@ -58,7 +58,7 @@ int cmd_convert(int argc, char** argv) {
                                   "TUM RGB-D folder (rgb/, depth/ at 5000 per metre, rgb.txt, depth.txt,\n"
                                   "groundtruth.txt when poses exist, labels/ when the source has labels,\n"
                                   "intrinsics.txt), or as an MCAP field log (PNG depth, JPEG colour, calibration,\n"
-                                  "reference poses; edgefusion run --help describes its topics).\n"
+                                  "reference poses; docs/field_log.md lists its topics).\n"
                                   "SIGINT / SIGTERM stop after the frame in hand and finish the target (exit 0).\n"
                                   "A target cut harder (kill -9, power) still reads back: each frame's data is\n"
                                   "written whole before the .klg frame count or the TUM lists name it.\n\n"

@@ -90,6 +90,35 @@ const SchemaText& log_schema() {
   return s;
 }
 
+const SchemaText& point_cloud_schema() {
+  static const SchemaText s{
+      "foxglove_msgs/msg/PointCloud",
+      with_time("builtin_interfaces/Time timestamp\nstring frame_id\ngeometry_msgs/Pose pose\nuint32 point_stride\n"
+                "foxglove_msgs/PackedElementField[] fields\nuint8[] data\n") +
+          nested("geometry_msgs/Pose", kPose) + nested("geometry_msgs/Point", kPoint) +
+          nested("geometry_msgs/Quaternion", kQuaternion) +
+          nested("foxglove_msgs/PackedElementField",
+                 "uint8 UNKNOWN=0\nuint8 UINT8=1\nuint8 INT8=2\nuint8 UINT16=3\nuint8 INT16=4\nuint8 UINT32=5\n"
+                 "uint8 INT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\nuint8 type\n")};
+  return s;
+}
+
+void encode_point_cloud_head(uint64_t stamp_ns, std::string_view frame_id, uint32_t stride, const PackedField* fields,
+                             std::size_t field_count, uint64_t points, std::string& out) {
+  cdr::Writer w(out);
+  time(w, stamp_ns);
+  w.string(frame_id);
+  pose(w, SE3());
+  w.put<uint32_t>(stride);
+  w.put<uint32_t>(static_cast<uint32_t>(field_count));
+  for (std::size_t i = 0; i < field_count; ++i) {
+    w.string(fields[i].name);
+    w.put<uint32_t>(fields[i].offset);
+    w.put<uint8_t>(fields[i].type);
+  }
+  w.put<uint32_t>(static_cast<uint32_t>(points * stride));  // data's length; the bytes follow
+}
+
 uint64_t to_nanoseconds(double seconds) {
   if (!(seconds > 0) || !std::isfinite(seconds)) return 0;
   return static_cast<uint64_t>(std::llround(seconds * 1e9));

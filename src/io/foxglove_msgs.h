@@ -30,6 +30,7 @@ const SchemaText& camera_calibration_schema();
 const SchemaText& pose_in_frame_schema();
 const SchemaText& frame_transform_schema();
 const SchemaText& log_schema();
+const SchemaText& point_cloud_schema();
 
 // Seconds (a frame's timestamp) <-> builtin_interfaces/Time and MCAP nanoseconds. Negative or
 // non-finite seconds are clamped to 0.
@@ -54,6 +55,17 @@ void encode_frame_transform(uint64_t stamp_ns, std::string_view parent, std::str
                             std::string& out);
 enum class LogLevel : uint8_t { kUnknown = 0, kDebug = 1, kInfo = 2, kWarning = 3, kError = 4, kFatal = 5 };
 void encode_log(uint64_t stamp_ns, LogLevel level, std::string_view message, std::string_view name, std::string& out);
+
+// PointCloud: a packed point cloud in `frame_id` (pose: identity). Writes the message up to and
+// including the length of its data (`points * stride` bytes), which the caller appends (or streams:
+// the map snapshots of io/mcap_log.h). Field types are foxglove_msgs/PackedElementField's numbers.
+struct PackedField {
+  const char* name;
+  uint32_t offset;
+  uint8_t type;  // 1 UINT8, 7 FLOAT32 (foxglove_msgs/PackedElementField)
+};
+void encode_point_cloud_head(uint64_t stamp_ns, std::string_view frame_id, uint32_t stride, const PackedField* fields,
+                             std::size_t field_count, uint64_t points, std::string& out);
 
 struct ImageMessage {
   uint64_t stamp_ns = 0;

@@ -1,6 +1,8 @@
 #include "io/mcap_log.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "io/image_codec.h"
 
@@ -26,6 +28,8 @@ const opt::Table<McapLogOptions>& McapLogOptions::table() {
        "and when it holds this much (its buffer, in the memory plan)"},
       {"sync", "", "", &McapLogOptions::sync, "", opt::any(),
        "fdatasync after each chunk (off: a kill loses nothing, a power cut may lose what the OS holds)"},
+      {"map", "", "", &McapLogOptions::map, "", opt::any(),
+       "the map as a PointCloud (/edgefusion/map) at each checkpoint, for Foxglove's 3D panel"},
   };
   return t;
 }
@@ -61,7 +65,8 @@ std::size_t McapFrameLog::encoder_bytes_for(int width, int height) {
 std::size_t McapFrameLog::bytes_for(const McapLogOptions& options, int width, int height, int label_width,
                                     int label_height) {
   const std::size_t mapping = label_width > 0 ? encoder_bytes_for(label_width, label_height) : 4096;
-  return static_cast<std::size_t>(options.chunk_mb) * 1000000 + encoder_bytes_for(width, height) + mapping;
+  const std::size_t map = options.map ? kMapPiecePoints * 20 : 0;
+  return static_cast<std::size_t>(options.chunk_mb) * 1000000 + encoder_bytes_for(width, height) + mapping + map;
 }
 
 Status McapFrameLog::open(const std::string& path, const McapLogOptions& options, int width, int height,
@@ -91,6 +96,8 @@ Status McapFrameLog::open(const std::string& path, const McapLogOptions& options
   if (!tf.ok()) return tf.error();
   auto log = schema(foxglove::log_schema());
   if (!log.ok()) return log.error();
+  auto cloud = schema(foxglove::point_cloud_schema());
+  if (!cloud.ok()) return cloud.error();
   const struct {
     Channel c;
     uint16_t schema;
@@ -104,12 +111,17 @@ Status McapFrameLog::open(const std::string& path, const McapLogOptions& options
       {kTf, *tf, "/tf"},
       {kLabels, *compressed, "/edgefusion/labels"},
       {kLog, *log, "/log"},
+      {kMap, *cloud, "/edgefusion/map"},
   };
   for (const auto& ch : channels) {
-    if (ch.c == kColor && options.color == "none") continue;
+    if ((ch.c == kColor && options.color == "none") || (ch.c == kMap && !options.map)) continue;
     auto id = writer_.add_channel(ch.schema, ch.topic, "cdr");
     if (!id.ok()) return id.error();
     channel_[ch.c] = *id;
+  }
+  if (options.map) {
+    map_piece_.resize(kMapPiecePoints * 20);
+    map_head_.reserve(512);
   }
   open_ = true;
   failed_.reset();
@@ -231,6 +243,40 @@ Status McapFrameLog::log_text(double timestamp, foxglove::LogLevel level, std::s
   foxglove::encode_log(ns, level, text, "edgefusion", enc.message);
   std::lock_guard<std::mutex> lock(mutex_);
   return put(channel_[kLog], ns, enc.message);
+}
+
+Status McapFrameLog::log_map(double timestamp, const SurfelCloudView& cloud) {
+  if (!open_ || !options_.map) return Status::success();
+  const bool classes = cloud.class_id.data != nullptr;
+  static constexpr foxglove::PackedField kFields[] = {
+      {"x", 0, 7}, {"y", 4, 7}, {"z", 8, 7}, {"red", 12, 1}, {"green", 13, 1}, {"blue", 14, 1}, {"alpha", 15, 1},
+      {"class", 16, 1}};
+  const uint32_t stride = classes ? 17 : 16;
+  const uint64_t ns = foxglove::to_nanoseconds(timestamp);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (failed_) return *failed_;
+  foxglove::encode_point_cloud_head(ns, "world", stride, kFields, classes ? 8 : 7, cloud.count, map_head_);
+  const uint64_t bytes = map_head_.size() + uint64_t(cloud.count) * stride;
+  Status s = writer_.write_streamed(channel_[kMap], ns, bytes, [&](const McapWriter::Put& put) -> Status {
+    EF_RETURN_IF_ERROR(put(map_head_.data(), map_head_.size()));
+    for (std::size_t first = 0; first < cloud.count; first += kMapPiecePoints) {
+      const std::size_t n = std::min<std::size_t>(kMapPiecePoints, cloud.count - first);
+      uint8_t* p = map_piece_.data();
+      for (std::size_t i = first; i < first + n; ++i, p += stride) {
+        const float xyz[3] = {cloud.x[i], cloud.y[i], cloud.z[i]};
+        std::memcpy(p, xyz, 12);
+        p[12] = cloud.red[i];
+        p[13] = cloud.green[i];
+        p[14] = cloud.blue[i];
+        p[15] = 255;
+        if (classes) p[16] = cloud.class_id[i];
+      }
+      EF_RETURN_IF_ERROR(put(map_piece_.data(), n * stride));
+    }
+    return Status::success();
+  });
+  if (!s.ok()) failed_ = s.error();
+  return s;
 }
 
 Status McapFrameLog::flush() {

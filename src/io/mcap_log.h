@@ -12,6 +12,8 @@
 //   /edgefusion/pose         PoseInFrame in "world": the mapper's estimate, each mapped frame
 //   /tf                      FrameTransform world -> camera: the same, for Foxglove's 3D panel
 //   /edgefusion/labels       CompressedImage "png" of class ids, when the CNN labelled a frame
+//   /edgefusion/map          PointCloud of the map (x y z, red green blue alpha, class) at each
+//                            checkpoint (log.map), streamed from the pool's columns
 //   /log                     Log: start, stop, errors, lost tracking
 //
 // Depth goes in as uint16 millimetres, round(metres * 1000), 0 = invalid (the .klg writer's rule),
@@ -41,6 +43,7 @@
 #include "core/result.h"
 #include "io/foxglove_msgs.h"
 #include "io/mcap_writer.h"
+#include "io/ply_writer.h"
 #include "io/png_encoder.h"
 
 namespace ef {
@@ -55,6 +58,7 @@ struct McapLogOptions {
   double chunk_seconds = 1;    // a chunk spans at most this much log time: what a cut may lose, s
   int64_t chunk_mb = 8;        // and at most this many MB (10^6 bytes)
   bool sync = true;            // fdatasync after each chunk (a power cut loses at most the open chunk)
+  bool map = true;             // the map as a PointCloud at each checkpoint
 
   static const opt::Table<McapLogOptions>& table();
   Status validate() const;
@@ -95,6 +99,9 @@ class McapFrameLog {
   // A class-id image the CNN produced for the frame at `timestamp` (an encoder with images of its size).
   Status log_labels(double timestamp, ImageView<const uint8_t> labels, Encoder& enc);
   Status log_text(double timestamp, foxglove::LogLevel level, std::string_view text, Encoder& enc);
+  // The map as a PointCloud in "world", streamed from its columns in pieces (no copy of the map:
+  // a chunk of its own; the other threads' messages wait for it). Class ids when the view has them.
+  Status log_map(double timestamp, const SurfelCloudView& cloud);
   // Closes the open chunk now (everything so far is readable after a cut).
   Status flush();
   // Writes the summary and closes the file. Returns the first error the log met, if any.
@@ -117,7 +124,10 @@ class McapFrameLog {
   std::optional<Error> failed_;
   bool calibration_written_ = false;
   uint64_t frames_ = 0;
-  enum Channel { kCalibration, kDepth, kColor, kReferencePose, kPose, kTf, kLabels, kLog, kChannels };
+  static constexpr std::size_t kMapPiecePoints = 4096;
+  std::vector<uint8_t> map_piece_;  // log_map's points, a piece at a time (20 bytes a point at most)
+  std::string map_head_;
+  enum Channel { kCalibration, kDepth, kColor, kReferencePose, kPose, kTf, kLabels, kLog, kMap, kChannels };
   uint16_t channel_[kChannels] = {};
 };
 

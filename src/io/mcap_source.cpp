@@ -63,8 +63,9 @@ class McapSource final : public FrameSource {
       }
     }
     if (!have_calibration) return fault("has no /camera/calibration message (the intrinsics)");
-    if (calib.width == 0 || calib.height == 0 || calib.width > 16384 || calib.height > 16384 || !(calib.fx > 0) ||
-        !(calib.fy > 0))
+    // Frames are allocated at this size (a frame without colour gets a black image of it): bounded.
+    if (calib.width == 0 || calib.height == 0 || calib.width > 8192 || calib.height > 8192 ||
+        uint64_t(calib.width) * calib.height > (uint64_t(1) << 24) || !(calib.fx > 0) || !(calib.fy > 0))
       return fault("its camera calibration is not a usable pinhole camera (" + std::to_string(calib.width) + "x" +
                    std::to_string(calib.height) + ", fx " + std::to_string(calib.fx) + ")");
     if (frames_.empty()) return fault("has no message on its depth topic '" + depth_topic + "'" +

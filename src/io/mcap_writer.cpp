@@ -138,11 +138,7 @@ Status McapWriter::write(uint16_t channel_id, uint64_t log_time_ns, uint64_t pub
   u64(chunk_, log_time_ns);
   u64(chunk_, publish_time_ns);
   chunk_.append(static_cast<const char*>(data), bytes);
-  if (message_count_ == 0) first_time_ = last_time_ = log_time_ns;
-  first_time_ = std::min(first_time_, log_time_ns);
-  last_time_ = std::max(last_time_, log_time_ns);
-  ++message_count_;
-  ++ch.messages;
+  count_message(ch, log_time_ns);
   return Status::success();
 }
 
@@ -187,11 +183,76 @@ Status McapWriter::close_chunk() {
   chunks_.push_back(std::move(index));
   chunk_.clear();
   chunk_empty_ = true;
+  return to_disk();
+}
+
+Status McapWriter::to_disk() {
   // What is written so far reaches the disk with the chunk: a cut keeps it.
   if (std::fflush(file_) != 0) return error(ErrorCode::kIoError, path_ + ": flush failed: " + std::strerror(errno));
   if (options_.sync && ::fdatasync(::fileno(file_)) != 0)
     return error(ErrorCode::kIoError, path_ + ": sync failed: " + std::strerror(errno));
   return Status::success();
+}
+
+void McapWriter::count_message(Channel& ch, uint64_t log_time_ns) {
+  if (message_count_ == 0) first_time_ = last_time_ = log_time_ns;
+  first_time_ = std::min(first_time_, log_time_ns);
+  last_time_ = std::max(last_time_, log_time_ns);
+  ++message_count_;
+  ++ch.messages;
+}
+
+Status McapWriter::write_streamed(uint16_t channel_id, uint64_t log_time_ns, uint64_t bytes,
+                                  const std::function<Status(const Put& put)>& produce) {
+  if (file_ == nullptr) return error(ErrorCode::kInvalidArgument, "mcap writer: write_streamed() before open()");
+  if (channel_id >= channels_.size())
+    return error(ErrorCode::kInvalidArgument, path_ + ": no channel " + std::to_string(channel_id));
+  EF_RETURN_IF_ERROR(close_chunk());
+  Channel& ch = channels_[channel_id];
+  const uint64_t record_bytes = 1 + 8 + 2 + 4 + 8 + 8 + bytes;  // the Message record in the chunk
+  ChunkIndex index{};
+  index.start_time = index.end_time = log_time_ns;
+  index.offset = offset_;
+  index.size = record_bytes;
+  std::string head;
+  u8(head, kChunk);
+  u64(head, 8 + 8 + 8 + 4 + 4 + 8 + record_bytes);
+  u64(head, log_time_ns);
+  u64(head, log_time_ns);
+  u64(head, record_bytes);
+  u32(head, 0);   // CRC not computed: the data is streamed
+  str(head, "");
+  u64(head, record_bytes);
+  u8(head, kMessage);
+  u64(head, 2 + 4 + 8 + 8 + bytes);
+  u16(head, channel_id);
+  u32(head, ch.sequence++);
+  u64(head, log_time_ns);
+  u64(head, log_time_ns);
+  EF_RETURN_IF_ERROR(put(head.data(), head.size()));
+  uint64_t produced = 0;
+  EF_RETURN_IF_ERROR(produce([&](const void* data, std::size_t n) -> Status {
+    produced += n;
+    if (produced > bytes) return error(ErrorCode::kInternal, path_ + ": a streamed message longer than announced");
+    return put(data, n);
+  }));
+  if (produced != bytes)
+    return error(ErrorCode::kInternal, path_ + ": a streamed message of " + std::to_string(produced) + " bytes, " +
+                                           std::to_string(bytes) + " announced");
+  index.length = offset_ - index.offset;
+  index.index_offset = offset_;
+  index.index_offsets.emplace_back(channel_id, offset_);
+  std::string body, rec;
+  u16(body, channel_id);
+  u32(body, 16);
+  u64(body, log_time_ns);
+  u64(body, 0);  // the message is the chunk's first record
+  record(rec, kMessageIndex, body);
+  EF_RETURN_IF_ERROR(put(rec.data(), rec.size()));
+  index.index_length = offset_ - index.index_offset;
+  chunks_.push_back(std::move(index));
+  count_message(ch, log_time_ns);
+  return to_disk();
 }
 
 Status McapWriter::flush() {

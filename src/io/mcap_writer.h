@@ -8,7 +8,7 @@
 // ChunkIndexes), the SummaryOffsets, the Footer and the closing magic.
 //
 // Memory: the open chunk's bytes and its message index live in buffers sized at open() from
-// chunk_bytes (a message larger than that gets a chunk of its own, written straight through);
+// chunk_bytes (a message larger than that gets a chunk of its own, the buffer growing for it);
 // write() allocates nothing once the channels exist and every channel has had a chunk's worth of
 // messages (its index entries keep their capacity); closing a chunk builds its index records (a
 // few small allocations a chunk). Threads: one thread.
@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -48,6 +49,14 @@ class McapWriter {
   // One message; log_time and publish_time in nanoseconds. Times should not go backwards per channel.
   Status write(uint16_t channel_id, uint64_t log_time_ns, uint64_t publish_time_ns, const void* data,
                std::size_t bytes);
+  // A message too large to hold in memory (a map snapshot): the open chunk is closed, and the message
+  // goes straight to the file as a chunk of its own, its `bytes` of data given in pieces by
+  // `produce`, which calls `put(data, n)` until they are all written. That chunk's CRC is 0 ("not
+  // computed": the spec's value for a writer that streams); the data section's CRC covers it.
+  // Errors: produce's, the file's, a produced size that differs from `bytes`.
+  using Put = std::function<Status(const void* data, std::size_t n)>;
+  Status write_streamed(uint16_t channel_id, uint64_t log_time_ns, uint64_t bytes,
+                        const std::function<Status(const Put& put)>& produce);
   // Closes the open chunk now (a checkpoint of the log: everything so far is readable after a cut).
   Status flush();
   Status close();
@@ -75,6 +84,8 @@ class McapWriter {
   };
   Status put(const void* data, std::size_t bytes);  // to the file, into the data CRC
   Status close_chunk();
+  Status to_disk();  // flush, and fdatasync with options_.sync
+  void count_message(Channel& ch, uint64_t log_time_ns);  // the statistics' counts and times
   void record(std::string& out, uint8_t opcode, const std::string& body) const;
 
   std::FILE* file_ = nullptr;

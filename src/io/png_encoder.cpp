@@ -68,7 +68,10 @@ Status PngEncoder::encode_rows(const uint8_t* base, std::size_t stride, int widt
     return error(ErrorCode::kInvalidArgument, "PNG encode: a " + std::to_string(width) + "x" + std::to_string(height) +
                                                   " image is larger than the encoder was sized for");
   out.clear();
-  out.reserve(bytes_for(width, height, pixel_bytes));  // a no-op after the first max-size image
+  // Grown once to the largest image's bound; never asked to shrink (before C++20, reserve() with a
+  // smaller size may reallocate to shrink).
+  const std::size_t need = bytes_for(width, height, pixel_bytes);
+  if (out.capacity() < need) out.reserve(need);
   out.append(reinterpret_cast<const char*>(kSignature), sizeof kSignature);
   std::size_t type_at = begin_chunk(out, "IHDR");
   append_be32(out, static_cast<uint32_t>(width));

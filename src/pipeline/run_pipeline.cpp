@@ -122,6 +122,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
                      stats.add_counter("surfels_refused"), stats.add_counter("cnn_frames_skipped")};
   p->st_checkpoint_ = stats.add_stage(kStageNames[0]);
+  p->st_log_map_ = stats.add_stage(kStageNames[1]);
 
   if (checkpoint) {
     EF_RETURN_IF_ERROR(restore_checkpoint(*checkpoint, p->mapping_->slam(), stats));
@@ -207,6 +208,14 @@ Status RunPipeline::checkpoint(double seconds) {
   EF_RETURN_IF_ERROR(write_checkpoint(out_folder_, meta, mapping_->slam(), stats_, checkpoint_names_));
   stats_.record_ms(st_checkpoint_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   stats_extra_[kExtraCheckpoints].value += 1;
+  if (log_ != nullptr && config_.log.map) {
+    // The map into the field log too (Foxglove's 3D panel); a failure is the log's, reported at the end.
+    const auto t1 = std::chrono::steady_clock::now();
+    SurfelCloudView cloud = slam::surfel_cloud_view(mapping_->slam().pool());
+    if (semantics_ != nullptr) semantics_->add_label_columns(mapping_->slam().pool(), cloud);
+    (void)log_->log_map(meta.last_timestamp, cloud);
+    stats_.record_ms(st_log_map_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
+  }
   return Status::success();
 }
 

@@ -96,7 +96,7 @@ struct OutputFiles {
 class RunPipeline {
  public:
   // The stage it records itself (the others: MappingStage's and RunSemantics').
-  static constexpr const char* kStageNames[] = {"checkpoint"};
+  static constexpr const char* kStageNames[] = {"checkpoint", "log_map"};
 
   // source: borrowed, must outlive the pipeline. Checks the configuration (RunConfig::validate,
   // check_run), then creates the output folder and the trajectory file, the SLAM, the semantics
@@ -194,6 +194,7 @@ class RunPipeline {
   std::string resume_warning_;             // a corrupt newest checkpoint, when the one before was used
   std::string checkpoint_names_;           // scratch for write_checkpoint()
   int st_checkpoint_ = -1;
+  int st_log_map_ = -1;  // the map written into the field log at a checkpoint
   struct CounterIds {
     int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,
         surfels_refused, cnn_skipped;

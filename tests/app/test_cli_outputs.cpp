@@ -469,6 +469,7 @@ TEST(CliOutputs, ARunsFieldLogReplaysToTheSameTrajectory) {
   EXPECT_EQ(our_count(log, "/tf"), 24);
   EXPECT_EQ(our_count(log, "/camera/calibration"), 1);
   EXPECT_GE(our_count(log, "/log"), 2);  // started, finished
+  EXPECT_EQ(our_count(log, "/edgefusion/map"), 1);  // at the final checkpoint
 
   // A log file that is there already is never overwritten.
   r = cli({"run", "--source", "klg:" + klg + "?size=160x120", "--resolution", "160x120", "--no-labels", "--quiet",
@@ -493,8 +494,14 @@ TEST(CliOutputs, ARunsFieldLogReplaysToTheSameTrajectory) {
   EXPECT_NE(npm.find("\"indexed\":true"), std::string::npos) << npm;
   const std::string npm_labelled = npm_mcap_summary((c / "log.mcap").string(), why);
   EXPECT_EQ(npm_count(npm_labelled, "/edgefusion/labels"), static_cast<long>(cnn_frames)) << npm_labelled;
-  for (const char* topic : {"/camera/depth", "/camera/color", "/edgefusion/pose", "/tf", "/camera/calibration", "/log"})
+  EXPECT_NE(npm_labelled.find("\"point_stride\":17,"), std::string::npos) << npm_labelled;
+  EXPECT_NE(npm_labelled.find("\"alpha\",\"class\"]"), std::string::npos) << npm_labelled;
+  for (const char* topic :
+       {"/camera/depth", "/camera/color", "/edgefusion/pose", "/tf", "/camera/calibration", "/log", "/edgefusion/map"})
     EXPECT_EQ(npm_count(npm, topic), our_count(log, topic)) << topic << ": " << npm;
+  // The map, decoded by Foxglove's reader: a PointCloud with colour (and classes with labels).
+  EXPECT_NE(npm.find("\"point_stride\":16,\"fields\":[\"x\",\"y\",\"z\",\"red\",\"green\",\"blue\",\"alpha\"]"),
+            std::string::npos) << npm;
   EXPECT_NE(npm.find("\"/camera/depth\":\"foxglove_msgs/msg/CompressedImage\""), std::string::npos) << npm;
   EXPECT_NE(npm.find("\"/tf\":\"foxglove_msgs/msg/FrameTransform\""), std::string::npos) << npm;
 }

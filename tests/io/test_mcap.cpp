@@ -4,7 +4,9 @@
 // tests/app/test_cli_log.cpp.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -17,6 +19,7 @@
 #include "io/mcap_reader.h"
 #include "io/mcap_source.h"
 #include "io/mcap_writer.h"
+#include "io/ply_writer.h"
 #include "io/png_encoder.h"
 #include "io_test_util.h"
 #include "test_support.h"
@@ -254,6 +257,89 @@ TEST(Mcap, GarbageAndForeignChunksAreErrorsNamingTheFile) {
                     "not an MCAP file");
   McapReader missing;
   EXPECT_ERROR_WITH(missing.open("/nonexistent/x.mcap"), ErrorCode::kNotFound, "/nonexistent/x.mcap");
+}
+
+TEST(Mcap, AStreamedMessageIsAChunkOfItsOwnBetweenTheOthers) {
+  const auto dir = test::scratch_dir("mcap_streamed");
+  const std::string path = (dir / "a.mcap").string();
+  std::string big(100000, '\0');
+  for (std::size_t i = 0; i < big.size(); ++i) big[i] = char(i * 7 + 3);
+  {
+    McapWriter w;
+    ASSERT_TRUE(w.open(path).ok());
+    auto sc = w.add_schema("test/Bytes", "ros2msg", "uint8[] data\n");
+    auto ch = w.add_channel(*sc, "/a", "cdr");
+    ASSERT_TRUE(w.write(*ch, 10, 10, "one", 3).ok());
+    ASSERT_TRUE(w.write_streamed(*ch, 20, big.size(), [&](const McapWriter::Put& put) -> Status {
+                   for (std::size_t at = 0; at < big.size(); at += 4096)
+                     EF_RETURN_IF_ERROR(put(big.data() + at, std::min<std::size_t>(4096, big.size() - at)));
+                   return Status::success();
+                 }).ok());
+    ASSERT_TRUE(w.write(*ch, 30, 30, "three", 5).ok());
+    // A producer that gives fewer bytes than it announced is an error.
+    auto short_write = w.write_streamed(*ch, 40, 10, [](const McapWriter::Put& put) { return put("abc", 3); });
+    EXPECT_FALSE(short_write.ok());
+  }
+  McapReader r;
+  ASSERT_TRUE(r.open(path).ok());
+  ASSERT_GE(r.messages().size(), 3u);
+  std::string buf;
+  ASSERT_TRUE(r.read(r.messages()[0], buf).ok());
+  EXPECT_EQ(buf, "one");
+  ASSERT_TRUE(r.read(r.messages()[1], buf).ok());
+  EXPECT_TRUE(buf == big);
+  ASSERT_TRUE(r.read(r.messages()[2], buf).ok());
+  EXPECT_EQ(buf, "three");
+}
+
+TEST(McapLog, TheMapIsAPointCloudOfEverySurfelWithItsColourAndClass) {
+  const auto dir = test::scratch_dir("mcap_map");
+  const std::string path = (dir / "a.mcap").string();
+  SurfelCloud cloud;
+  const int n = 10000;  // more than one piece of the stream
+  for (int i = 0; i < n; ++i) {
+    cloud.x.push_back(0.001f * i);
+    cloud.y.push_back(-0.5f * i);
+    cloud.z.push_back(1.0f + i);
+    for (auto* v : {&cloud.nx, &cloud.ny, &cloud.nz, &cloud.radius, &cloud.confidence, &cloud.class_prob}) v->push_back(0);
+    cloud.red.push_back(uint8_t(i));
+    cloud.green.push_back(uint8_t(i >> 8));
+    cloud.blue.push_back(7);
+    cloud.class_id.push_back(uint8_t(i % 14));
+  }
+  McapLogOptions o;
+  o.color = "none";
+  {
+    McapFrameLog log;
+    ASSERT_TRUE(log.open(path, o, 16, 12, Intrinsics{20, 20, 7.5f, 5.5f, 16, 12}).ok());
+    ASSERT_TRUE(log.log_map(2.5, cloud.view()).ok());
+    ASSERT_TRUE(log.close().ok());
+  }
+  McapReader r;
+  ASSERT_TRUE(r.open(path).ok());
+  const McapChannel* map = r.channel("/edgefusion/map");
+  ASSERT_NE(map, nullptr);
+  EXPECT_EQ(r.schema(map->schema_id)->name, "foxglove_msgs/msg/PointCloud");
+  ASSERT_EQ(map->messages, 1u);
+  std::string msg;
+  ASSERT_TRUE(r.read(r.messages()[0], msg).ok());
+  // The points are the message's last n * 17 bytes, after the data's length.
+  ASSERT_GT(msg.size(), std::size_t(n) * 17 + 4);
+  const std::size_t data = msg.size() - std::size_t(n) * 17;
+  uint32_t len = 0;
+  std::memcpy(&len, msg.data() + data - 4, 4);
+  EXPECT_EQ(len, uint32_t(n) * 17);
+  for (int i : {0, 4095, 4096, n - 1}) {
+    const char* p = msg.data() + data + std::size_t(i) * 17;
+    float xyz[3];
+    std::memcpy(xyz, p, 12);
+    EXPECT_EQ(xyz[0], cloud.x[i]);
+    EXPECT_EQ(xyz[2], cloud.z[i]);
+    EXPECT_EQ(uint8_t(p[12]), cloud.red[i]);
+    EXPECT_EQ(uint8_t(p[13]), cloud.green[i]);
+    EXPECT_EQ(uint8_t(p[15]), 255);
+    EXPECT_EQ(uint8_t(p[16]), cloud.class_id[i]);
+  }
 }
 
 // ---- A log of frames, replayed ----

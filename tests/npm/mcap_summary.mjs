@@ -39,6 +39,8 @@ function decode(schema, channel, message) {
     if (value.pose !== undefined) f.w = value.pose.orientation.w;
     if (value.message !== undefined) f.message = value.message;
     if (value.data !== undefined) f.data_bytes = value.data.length;
+    if (value.point_stride !== undefined) f.point_stride = value.point_stride;
+    if (value.fields !== undefined) f.fields = value.fields.map((x) => x.name);
     out.first[topic] = f;
   }
 }

@@ -17,6 +17,7 @@
 
 #include "support/alloc_counter.h"
 #include "core/stage_stats.h"
+#include "io/mcap_reader.h"
 #include "pipeline/run_pipeline.h"
 #include "io/frame_source.h"
 #include "semantic/semantic_test_util.h"
@@ -337,6 +338,42 @@ TEST(Pipeline, BadCoreIsAnErrorNamingTheKey) {
   auto p = pipeline::RunPipeline::create(c, source, stats);
   ASSERT_FALSE(p.ok());
   EXPECT_NE(p.error().message.find("pipeline.mapping_cpu 1023"), std::string::npos) << p.error().message;
+}
+
+// Issue 29: the field log is written by three threads at once (the front's frames, the mapping
+// thread's poses, lines and the CNN's class ids) on three threads: every frame, pose and CNN
+// result is in it once, readable (and TSan sees the log's lock at work).
+TEST(Pipeline, FieldLogHoldsEveryFrameAndPoseAndCnnResultWithThreeThreads) {
+  const auto dir = test::scratch_dir("pipeline-field-log");
+  LoopSource source(12, 60);
+  StageStats stats;
+  pipeline::RunConfig config = small_run(dir / "run", tiny_model(dir), 3);
+  config.log.file = "log.mcap";
+  config.log.chunk_seconds = 0.2;
+  auto p = pipeline::RunPipeline::create(config, source, stats);
+  ASSERT_TRUE(p.ok()) << to_string(p.error());
+  pipeline::RunObserver none;
+  const pipeline::RunOutcome outcome = (*p)->run(none);
+  ASSERT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
+  const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
+  EXPECT_TRUE(files.errors.empty());
+  ASSERT_TRUE(files.wrote_log);
+  EXPECT_EQ(files.log_frames, 60u);
+  McapReader log;
+  ASSERT_TRUE(log.open(files.log).ok());
+  EXPECT_TRUE(log.complete()) << log.warning();
+  const auto count = [&](const char* topic) {
+    const McapChannel* c = log.channel(topic);
+    return c == nullptr ? uint64_t(0) : c->messages;
+  };
+  EXPECT_EQ(count("/camera/depth"), 60u);
+  EXPECT_EQ(count("/edgefusion/pose"), 60u);
+  EXPECT_EQ(count("/tf"), 60u);
+  EXPECT_EQ(count("/edgefusion/labels"), stats.counter(stats.counter_id("cnn_frames")));
+  EXPECT_GE(count("/edgefusion/labels"), 1u);
+  std::string buf;
+  for (const McapMessageRef& m : log.messages()) ASSERT_TRUE(log.read(m, buf).ok());
+  EXPECT_GE(stats.summary(stats.stage_id("log")).count, 60u);
 }
 
 }  // namespace
