@@ -109,7 +109,7 @@ def main():
         again = open(os.path.join(r, "trajectory.txt")).read()
         same = orig == again
         a1, a2 = ate_cm(ef, gt, os.path.join(d, "trajectory.txt")), ate_cm(ef, gt, os.path.join(r, "trajectory.txt"))
-        print(f"replay of the {name[4:-1]} log: trajectory {'byte-identical' if same else 'differs'}; ATE original "
+        print(f"replay of the {name[5:-1]} log: trajectory {'byte-identical' if same else 'differs'}; ATE original "
               f"{a1:.3f} cm, replayed {a2:.3f} cm")
         if name == "log (png colour)" and not same:
             failed = True

@@ -1,6 +1,9 @@
 // `edgefusion log`: the low-power logging mode (issue 29). A robot that maps later, or elsewhere,
 // records what its camera sees into an MCAP field log (io/mcap_log.h) and does nothing else: no
-// tracking, no fusion, no CNN, one thread. `run --source mcap:FILE` maps the log afterwards.
+// tracking, no fusion, no CNN. A recording is read and written on one thread; a live camera is read
+// on a capture thread into a ring (pipeline/capture_thread.h), so that a slow write (a chunk synced
+// to an SD card) never holds the camera up: a frame the full ring could not take is dropped and
+// counted, and the count is printed. `run --source mcap:FILE` maps the log afterwards.
 #include <sys/resource.h>
 #include <sys/stat.h>
 
@@ -16,6 +19,7 @@
 #include "core/frame.h"
 #include "core/progress.h"
 #include "io/mcap_log.h"
+#include "pipeline/capture_thread.h"
 #include "sources/open_source.h"
 #include "stop_signal.h"
 
@@ -102,6 +106,12 @@ int cmd_log(int argc, char** argv) {
   if (*max_frames > 0 && (expected < 0 || *max_frames < expected)) expected = *max_frames;
   Progress progress("log", expected, !args->has("--quiet"));
   const bool realtime = args->has("--realtime") && !info.live;
+  // A camera: its own thread and a ring of 4 frames between it and the writer.
+  std::unique_ptr<pipeline::CaptureThread> capture;
+  if (info.live) {
+    capture = std::make_unique<pipeline::CaptureThread>(source, 4);
+    capture->start();
+  }
   const auto wall0 = std::chrono::steady_clock::now();
   const double cpu0 = cpu_seconds();
   double t0 = 0;
@@ -116,7 +126,20 @@ int cmd_log(int argc, char** argv) {
                    static_cast<long long>(frames), out.c_str());
       break;
     }
-    auto got = source.next(frame);
+    Result<bool> got = false;
+    if (capture != nullptr) {
+      pipeline::CapturedFrame* slot = capture->acquire(std::chrono::milliseconds(200));
+      if (slot == nullptr) continue;  // nothing yet: check the stop request again
+      if (slot->end) {
+        got = slot->error ? Result<bool>(*slot->error) : Result<bool>(false);
+      } else {
+        copy_frame(slot->frame, frame);
+        got = true;
+      }
+      capture->release();
+    } else {
+      got = source.next(frame);
+    }
     if (!got.ok()) {
       if (is_camera_lost(info, got.error())) {
         ending = "the camera was lost";
@@ -144,6 +167,11 @@ int cmd_log(int argc, char** argv) {
     progress.update(frames);
   }
   progress.finish(frames);
+  uint64_t dropped = 0;
+  if (capture != nullptr) {
+    capture->stop();
+    dropped = capture->dropped() + capture->corrupt_dropped();
+  }
   (void)log.log_text(frame.timestamp, exit_code == 0 ? foxglove::LogLevel::kInfo : foxglove::LogLevel::kError,
                      "edgefusion log: stopped after " + std::to_string(frames) + " frames: " + ending, *encoder);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
@@ -154,6 +182,9 @@ int cmd_log(int argc, char** argv) {
   std::printf("logged %lld frames (%dx%d) to %s: %.1f MB, %.1f s, %.1f Hz, CPU %.2f ms per frame\n",
               static_cast<long long>(frames), info.intrinsics.width, info.intrinsics.height, out.c_str(), mb, wall,
               wall > 0 ? double(frames) / wall : 0.0, frames > 0 ? 1000.0 * cpu / double(frames) : 0.0);
+  if (capture != nullptr)
+    std::printf("camera frames dropped: %llu (the ring was full while the log was written, or the camera marked "
+                "them corrupt)\n", static_cast<unsigned long long>(dropped));
   return exit_code;
 }
 

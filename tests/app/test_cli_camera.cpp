@@ -37,6 +37,30 @@ TEST(CliCamera, OpenNi2DummyStreamsThroughTheMapper) {
 #endif
 }
 
+// The logging mode on a live camera: frames come through the capture ring; the log holds each one
+// delivered, with the device's timestamps, and the dropped frames are counted.
+TEST(CliCamera, OpenNi2DummyIsLoggedThroughTheCaptureRing) {
+#ifndef EF_HAVE_OPENNI2
+  GTEST_SKIP() << "built without OpenNI2 (libopenni2-dev missing)";
+#else
+  if (!test::openni2_dummy_driver_installed())
+    GTEST_SKIP() << "OpenNI2's Dummy driver is not installed in " << test::openni2_driver_dir();
+  const auto dir = test::scratch_dir("cli-camera-log");
+  const std::string log = (dir / "field.mcap").string();
+  const auto r = cli({"log", "--source", "openni2:Dummy", "--frames", "8", "--out", log, "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("logged 8 frames"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("camera frames dropped: "), std::string::npos) << r.out;
+  const auto m = cli({"run", "--source", "mcap:" + log, "--no-labels", "--out", (dir / "mapped").string(), "--quiet"});
+  ASSERT_EQ(m.code, 0) << m.err;
+  auto traj = read_tum_trajectory((dir / "mapped" / "trajectory.txt").string());
+  ASSERT_TRUE(traj.ok()) << to_string(traj.error());
+  EXPECT_EQ(traj->poses.size(), 8u);
+  for (std::size_t i = 1; i < traj->poses.size(); ++i)
+    EXPECT_GT(traj->poses[i].timestamp, traj->poses[i - 1].timestamp) << i;  // the device's clock, kept
+#endif
+}
+
 // The front panel: a configured chip that does not exist stops the run before it starts, naming
 // the chip; marked optional, it is a warning and the run goes on without the LED.
 TEST(CliCamera, MissingGpioChipIsAnErrorOrAWarning) {
