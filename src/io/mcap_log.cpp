@@ -176,8 +176,9 @@ Status McapFrameLog::log_frame(const Frame& frame, Encoder& enc) {
   }
   // Depth.
   if (options_.depth == "raw") {
-    foxglove::encode_raw_image(ns, "camera", w, h, "16UC1", w * 2, nullptr, enc.message);
-    depth_to_millimetres(frame.depth, reinterpret_cast<uint16_t*>(foxglove::raw_image_data(enc.message, h, w * 2)));
+    // Converted beside and copied in: the pixels' place in the message need not be 2-byte aligned.
+    depth_to_millimetres(frame.depth, enc.millimetres.data());
+    foxglove::encode_raw_image(ns, "camera", w, h, "16UC1", w * 2, enc.millimetres.data(), enc.message);
   } else {
     depth_to_millimetres(frame.depth, enc.millimetres.data());
     EF_RETURN_IF_ERROR(enc.png->encode(ImageView<const uint16_t>(enc.millimetres.data(), width_, height_,

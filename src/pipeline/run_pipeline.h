@@ -20,6 +20,10 @@
 // (io/durable_file.h). A killed run leaves its trajectory up to the last line, and a stats.json
 // that parses and says "running".
 //
+// With log.file, a field log (io/mcap_log.h) is written beside: the front stage writes each source
+// frame, the mapping thread each pose, the CNN's class ids and status lines, and each checkpoint the
+// map and the open chunk; it is closed with the outputs (a log that failed is reported there).
+//
 // Front and mapping share a StageRing (core/stage_ring.h) of pipeline.prepared_slots PreparedFrame
 // slots, which every frame passes through in order; a step waits for its predecessor, nothing is
 // dropped after capture. pipeline.threads says how the steps map onto threads:
