@@ -42,14 +42,7 @@ Status write_npy_f32(const std::string& path, const float* data, const std::size
   std::size_t count = 1;
   for (int i = 0; i < dims; ++i) count *= shape[i];
   const std::string header = npy_header_f32(shape, dims);
-  FileReplacement replacement(path);  // whole or absent (io/durable_file.h)
-  std::FILE* f = std::fopen(replacement.temp_path().c_str(), "wb");
-  if (!f) return error(ErrorCode::kIoError, path + ": cannot create (" + std::strerror(errno) + ")");
-  const bool ok = std::fwrite(header.data(), 1, header.size(), f) == header.size() &&
-                  (count == 0 || std::fwrite(data, sizeof(float), count, f) == count);
-  const bool closed = std::fclose(f) == 0;
-  if (!ok || !closed) return error(ErrorCode::kIoError, path + ": write failed (" + std::strerror(errno) + ")");
-  return replacement.commit();
+  return write_file_whole(path, {{header.data(), header.size()}, {data, count * sizeof(float)}});  // whole or absent
 }
 
 }  // namespace ef::app

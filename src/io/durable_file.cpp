@@ -63,6 +63,19 @@ Status sync_folder(const std::string& folder) {
   return Status::success();
 }
 
+Status write_file_whole(const std::string& path, std::initializer_list<FilePiece> pieces) {
+  FileReplacement replacement(path);
+  std::FILE* f = std::fopen(replacement.temp_path().c_str(), "wb");
+  if (!f) return error(ErrorCode::kIoError, path + ": cannot create: " + std::strerror(errno));
+  bool wrote = true;
+  for (const FilePiece& p : pieces) wrote = wrote && (p.bytes == 0 || std::fwrite(p.data, 1, p.bytes, f) == p.bytes);
+  wrote = wrote && std::fflush(f) == 0;
+  const int e = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!wrote || !closed) return error(ErrorCode::kIoError, path + ": write failed: " + std::strerror(e));
+  return replacement.commit();
+}
+
 // ---- FileReplacement ----
 
 FileReplacement::FileReplacement(std::string path, Durability durability)

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstddef>
+#include <initializer_list>
 #include <string>
 #include <string_view>
 
@@ -47,6 +48,14 @@ class FileReplacement {
   Durability durability_;
   bool done_ = false;
 };
+
+// A file written whole or not at all (a FileReplacement, synced) from pieces in memory, one after
+// the other. Errors name the file and the reason (a failed create, write, sync or rename).
+struct FilePiece {
+  const void* data;
+  std::size_t bytes;
+};
+Status write_file_whole(const std::string& path, std::initializer_list<FilePiece> pieces);
 
 class RewrittenFile {
  public:

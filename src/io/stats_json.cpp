@@ -180,14 +180,7 @@ std::string stats_to_json(const StageStats& stats, uint64_t frames, double secon
 Status write_stats_json(const std::string& path, const StageStats& stats, uint64_t frames, double seconds,
                         const std::vector<StatsExtraField>& extra, std::string_view state) {
   const std::string text = stats_to_json(stats, frames, seconds, extra, state);
-  FileReplacement replacement(path);  // whole or not at all (io/durable_file.h)
-  std::FILE* f = std::fopen(replacement.temp_path().c_str(), "wb");
-  if (!f) return error(ErrorCode::kIoError, path + ": cannot create: " + std::strerror(errno));
-  const bool wrote = std::fwrite(text.data(), 1, text.size(), f) == text.size() && std::fflush(f) == 0;
-  const int e = errno;
-  const bool closed = std::fclose(f) == 0;
-  if (!wrote || !closed) return error(ErrorCode::kIoError, path + ": write failed: " + std::strerror(e));
-  return replacement.commit();
+  return write_file_whole(path, {{text.data(), text.size()}});  // whole or not at all
 }
 
 }  // namespace ef

@@ -54,6 +54,20 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   if (!folder.ok()) return folder.take_error();
   p->out_folder_ = std::move(*folder);
   const std::filesystem::path out(p->out_folder_);
+  // A new run that cannot start (a log that cannot be created, a source shorter than asked...)
+  // leaves none of its outputs behind, so that the folder does not read as holding a run and the
+  // same command works once the fault is fixed. A resumed run's folder keeps what it had.
+  struct RemoveOnFailure {
+    std::vector<std::filesystem::path> files;
+    bool armed = true;
+    ~RemoveOnFailure() {
+      std::error_code ec;
+      if (armed)
+        for (const auto& f : files) std::filesystem::remove(f, ec);
+    }
+  } undo;
+  if (!config.output.resume)
+    undo.files = {out / "trajectory.txt", out / "config.yaml", out / "stats.json", out / ".stats.json.next"};
   // A resumed run: its newest valid checkpoint, and the trajectory cut back to the lines it covers.
   std::optional<FoundCheckpoint> checkpoint;
   if (config.output.resume) {
@@ -85,6 +99,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
       return error(ErrorCode::kInvalidArgument, p->log_path_ + ": a log is there already (never overwritten; give "
                                                                "another log.file, or output.overwrite)");
     p->log_ = std::make_unique<McapFrameLog>();
+    undo.files.push_back(p->log_path_);
     EF_RETURN_IF_ERROR(p->log_->open(p->log_path_, config.log, info.intrinsics.width, info.intrinsics.height,
                                      info.intrinsics));
     // The mapping thread's: poses and lines, and the CNN's class ids at the working size.
@@ -131,13 +146,8 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
     p->resume_warning_ = checkpoint->warning;
   } else {
     // The configuration beside the outputs: what `run --resume` continues with.
-    FileReplacement file((out / "config.yaml").string());
-    std::FILE* f = std::fopen(file.temp_path().c_str(), "wb");
     const std::string text = config.describe();
-    const bool ok = f != nullptr && std::fwrite(text.data(), 1, text.size(), f) == text.size();
-    if (f != nullptr && std::fclose(f) != 0) return error(ErrorCode::kIoError, file.path() + ": write failed");
-    if (!ok) return error(ErrorCode::kIoError, file.path() + ": cannot write the run's configuration");
-    EF_RETURN_IF_ERROR(file.commit());
+    EF_RETURN_IF_ERROR(write_file_whole((out / "config.yaml").string(), {{text.data(), text.size()}}));
   }
 
   // stats.json from the start, so that a run killed at any moment leaves one that says "running".
@@ -156,6 +166,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                      {"checkpoints", 0}};
   p->stats_file_.open((out / "stats.json").string());
   EF_RETURN_IF_ERROR(p->write_stats("running", 0, 0.0));
+  undo.armed = false;
   return p;
 }
 

@@ -476,6 +476,16 @@ TEST(CliOutputs, ARunsFieldLogReplaysToTheSameTrajectory) {
            "--log", (a / "log.mcap").string(), "--out", (dir / "c").string()});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("a log is there already"), std::string::npos) << r.err;
+  // A run that could not start left nothing behind: the same folder takes the next run, and a log
+  // that cannot be created is an error naming it.
+  EXPECT_FALSE(fs::exists(dir / "c" / "trajectory.txt"));
+  r = cli({"run", "--source", "klg:" + klg + "?size=160x120", "--resolution", "160x120", "--no-labels", "--quiet",
+           "--log", "/nonexistent-folder/field.mcap", "--out", (dir / "c").string()});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("/nonexistent-folder/field.mcap"), std::string::npos) << r.err;
+  r = cli({"run", "--source", "klg:" + klg + "?size=160x120", "--resolution", "160x120", "--no-labels", "--quiet",
+           "--frames", "3", "--out", (dir / "c").string()});
+  EXPECT_EQ(r.code, 0) << r.err;
 
   // With labels: each CNN result's class ids are in the log too.
   const fs::path c = dir / "labelled";

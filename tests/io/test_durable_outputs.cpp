@@ -78,6 +78,25 @@ TEST(FileReplacement, AnAbandonedWriteLeavesTheEarlierFileAndNoPartial) {
   EXPECT_NE(s.error().message.find("never.txt"), std::string::npos) << s.error().message;
 }
 
+TEST(WriteFileWhole, PiecesInOrderOrNothingOnAFullDisk) {
+  const auto dir = test::scratch_dir("write-whole");
+  const std::string path = (dir / "out.bin").string();
+  const std::string a = "head:", b(1000, 'x');
+  ASSERT_TRUE(write_file_whole(path, {{a.data(), a.size()}, {nullptr, 0}, {b.data(), b.size()}}).ok());
+  EXPECT_EQ(read_all(path), a + b);
+  EXPECT_EQ(names_in(dir), std::vector<std::string>{"out.bin"});
+
+  test::SmallDisk disk("write-whole-full", 64 * 1024);
+  EF_SKIP_WITHOUT_SMALL_DISK(disk);
+  const std::string big(200 * 1024, 'y');
+  const std::string full = (disk.dir() / "big.bin").string();
+  auto s = write_file_whole(full, {{big.data(), big.size()}});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("big.bin"), std::string::npos) << s.error().message;
+  EXPECT_NE(s.error().message.find("No space left on device"), std::string::npos) << s.error().message;
+  EXPECT_TRUE(names_in(disk.dir()).empty());  // neither the file nor its .partial
+}
+
 TEST(RewrittenFile, EachVersionReplacesTheLastAndTheNextIsReserved) {
   const auto dir = test::scratch_dir("rewritten");
   const std::string path = (dir / "stats.json").string();
