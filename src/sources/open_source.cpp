@@ -4,13 +4,15 @@
 #include "io/mcap_source.h"
 #include "io/sevenscenes_source.h"
 #include "io/tum_source.h"
+#include "sources/edited_source.h"
 #include "platform/devices/cameras.h"
 #include "synth/synthetic_source.h"
 
 namespace ef {
 
-Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri_text) {
-  EF_ASSIGN_OR_RETURN(SourceUri uri, parse_source_uri(uri_text));
+namespace {
+
+Result<std::unique_ptr<FrameSource>> open_scheme(const std::string& uri_text, const SourceUri& uri) {
   if (uri.scheme == "synthetic") return open_synthetic(uri);
   if (uri.scheme == "tum") return open_tum(uri);
   if (uri.scheme == "7scenes") return open_7scenes(uri);
@@ -23,6 +25,16 @@ Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri_text) {
   }
   return error(ErrorCode::kInvalidArgument, "source '" + uri_text + "': unknown scheme '" + uri.scheme +
                                                 "' (expected one of: " + source_uri_help() + ")");
+}
+
+}  // namespace
+
+Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri_text) {
+  EF_ASSIGN_OR_RETURN(SourceUri uri, parse_source_uri(uri_text));
+  EF_ASSIGN_OR_RETURN(const FrameEdits edits, take_frame_edits(uri));
+  EF_ASSIGN_OR_RETURN(std::unique_ptr<FrameSource> source, open_scheme(uri_text, uri));
+  if (!edits.any()) return source;
+  return edit_frames(std::move(source), edits, uri_text);
 }
 
 SourceProbe probe_of(const FrameSource& source) {
@@ -61,7 +73,8 @@ const char* source_uri_help() {
   return "synthetic:, synthetic:ROOM, synthetic:random?seed=N (query: seed, trajectory=loop|robot|inspect, frames, "
          "size=WxH, noise=0|1, camera=ideal|kinect, layout=walls|island), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH], mcap:FILE (a field log; query: depth=TOPIC, color=TOPIC), openni2:[DEVICE|FILE.oni] "
          "(query: size=WxH, fps, timeout_ms, registration=0|1, fx, fy, cx, cy), v4l2:/dev/videoN (query: "
-         "format=rgb|z16, size=WxH, fps, timeout_ms, depth_scale, fx, fy, cx, cy)";
+         "format=rgb|z16, size=WxH, fps, timeout_ms, depth_scale, fx, fy, cx, cy); every recording also takes cut=A-B "
+         "(frames A..B left out) and blank=N+K (K blank frames before frame N)";
 }
 
 }  // namespace ef

@@ -16,6 +16,8 @@ namespace ef {
 //       a .oni recording; depth in metres registered to colour where the device can.
 //   v4l2:/dev/videoN[?format=rgb|z16&size=WxH&fps=N&timeout_ms=N&depth_scale=S&fx=..]
 //       a Video4Linux2 camera: colour (rgb, depth all invalid) or 16-bit depth (z16, no colour).
+// Every recording also takes cut=A-B and blank=N+K (sources/edited_source.h: frames left out, a
+// covered lens).
 // Unknown schemes and unknown query keys are errors that name them. A camera scheme in a build
 // configured without its package is a kUnsupported error saying "not built: missing package ...".
 Result<std::unique_ptr<FrameSource>> open_source(const std::string& uri);
