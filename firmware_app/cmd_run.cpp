@@ -106,8 +106,9 @@ class PanelObserver : public RunObserver {
     const slam::SlamFrameResult& r = pipeline.mapping().last_result();
     set_led(r.lost ? LedPattern::kLost : LedPattern::kTracking);
     const slam::SurfelSlam& slam = pipeline.slam();
-    std::snprintf(line_, sizeof line_, "%s, %lld surfels, %lld lost, %lld dropped", r.lost ? "LOST" : "tracking",
-                  static_cast<long long>(slam.pool().size()), static_cast<long long>(slam.lost_frames()),
+    std::snprintf(line_, sizeof line_, "%s, %lld surfels, %lld lost, %lld relocalised, %lld dropped",
+                  r.lost ? "LOST" : "tracking", static_cast<long long>(slam.pool().size()),
+                  static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.relocalisations()),
                   static_cast<long long>(pipeline.frames_dropped()));
     progress_.update(pipeline.mapping().frames(), line_);
   }
@@ -250,9 +251,11 @@ int cmd_run(int argc, char** argv) {
   if (!files.errors.empty()) exit_code = 1;
   panel.set_led(LedPattern::kOff);
 
-  std::printf("frames %lld in %.2f s (%.1f fps), lost %lld, surfels %lld\n", static_cast<long long>(outcome.frames),
-              outcome.seconds, outcome.seconds > 0 ? static_cast<double>(outcome.frames) / outcome.seconds : 0.0,
-              static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.pool().size()));
+  std::printf("frames %lld in %.2f s (%.1f fps), lost %lld, relocalised %lld, surfels %lld, keyframes %d\n",
+              static_cast<long long>(outcome.frames), outcome.seconds,
+              outcome.seconds > 0 ? static_cast<double>(outcome.frames) / outcome.seconds : 0.0,
+              static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.relocalisations()),
+              static_cast<long long>(slam.pool().size()), static_cast<int>(slam.keyframes().size()));
   if (files.wrote_trajectory) std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
   if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());

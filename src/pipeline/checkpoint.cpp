@@ -13,7 +13,9 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "checkpoints store the 
 namespace {
 
 constexpr char kMeta[4] = {'M', 'E', 'T', 'A'}, kSlam[4] = {'S', 'L', 'A', 'M'}, kPool[4] = {'P', 'O', 'O', 'L'},
-               kCounterNames[4] = {'C', 'N', 'T', 'N'}, kCounterValues[4] = {'C', 'N', 'T', 'V'};
+               kCounterNames[4] = {'C', 'N', 'T', 'N'}, kCounterValues[4] = {'C', 'N', 'T', 'V'},
+               kKeyframes[4] = {'K', 'E', 'Y', 'F'};
+constexpr int kKeyframeHeaderWords = 4;
 constexpr int kMetaWords = 32, kSlamWords = 32, kPoolHeaderWords = 8;
 
 uint64_t word(double v) {
@@ -108,7 +110,21 @@ Status write_checkpoint(const std::string& folder, const CheckpointMeta& meta, c
   s[17] = static_cast<uint64_t>(st.sweep_cursor);
   s[18] = static_cast<uint64_t>(static_cast<int64_t>(st.predicted_frame));
   s[19] = word(static_cast<double>(st.predicted_min_confidence));
+  s[20] = static_cast<uint64_t>(st.lost_run);
+  s[21] = static_cast<uint64_t>(st.relocalisations);
+  s[22] = word(st.inlier_average);
+  s[23] = static_cast<uint64_t>(st.inlier_samples);
   EF_RETURN_IF_ERROR(w.section(kSlam, s, sizeof s));
+
+  // The relocaliser's keyframes straight from the database's arrays.
+  const slam::KeyframeFerns& kf = slam.keyframes();
+  const uint64_t kn = static_cast<uint64_t>(kf.size());
+  const uint64_t kh[kKeyframeHeaderWords] = {kn, static_cast<uint64_t>(kf.ferns()), kf.refused(), 0};
+  const SnapshotWriter::Part kparts[4] = {{kh, sizeof kh},
+                                          {kf.code(0), kn * static_cast<uint64_t>(kf.ferns())},
+                                          {kf.pose_words(), kn * 7 * sizeof(double)},
+                                          {kf.frames(), kn * sizeof(int32_t)}};
+  EF_RETURN_IF_ERROR(w.section(kKeyframes, kparts, 4));
 
   // The pool straight from its columns: no copy.
   const slam::SurfelPool& pool = slam.pool();
@@ -196,6 +212,40 @@ Status read_pool(const SnapshotReader& r, int64_t n, const slam::SurfelPoolCount
   return pool.set_restored(n, counters);
 }
 
+// The KEYF section into the relocaliser's database. A checkpoint without it (written before
+// relocalisation existed) leaves the database empty: it fills again from the frames that follow.
+Status read_keyframes(const SnapshotReader& r, slam::KeyframeFerns& kf) {
+  if (!r.has(kKeyframes)) return Status::success();
+  uint64_t kh[kKeyframeHeaderWords];
+  EF_RETURN_IF_ERROR(r.read(kKeyframes, kh, sizeof kh));
+  const uint64_t n = kh[0], ferns = kh[1];
+  if (ferns != static_cast<uint64_t>(kf.ferns()))
+    return error(ErrorCode::kInvalidArgument, r.path() + ": keyframes encoded with " + std::to_string(ferns) +
+                                                  " ferns; this run has mapping.fern_count " +
+                                                  std::to_string(kf.ferns()) + " (they must match to resume)");
+  if (n > static_cast<uint64_t>(kf.capacity()))
+    return error(ErrorCode::kInvalidArgument, r.path() + ": holds " + std::to_string(n) +
+                                                  " keyframes, more than mapping.keyframe_capacity " +
+                                                  std::to_string(kf.capacity()));
+  const uint64_t expected = sizeof kh + n * (ferns + 7 * sizeof(double) + sizeof(int32_t));
+  if (r.size(kKeyframes) != expected)
+    return error(ErrorCode::kCorruptData, r.path() + ": section KEYF has " + std::to_string(r.size(kKeyframes)) +
+                                              " bytes; " + std::to_string(n) + " keyframes take " +
+                                              std::to_string(expected));
+  std::vector<uint8_t> codes(n * ferns);
+  std::vector<double> poses(n * 7);
+  std::vector<int32_t> frames(n);
+  uint64_t offset = sizeof kh;
+  EF_RETURN_IF_ERROR(r.read(kKeyframes, codes.data(), codes.size(), offset));
+  offset += codes.size();
+  EF_RETURN_IF_ERROR(r.read(kKeyframes, poses.data(), poses.size() * sizeof(double), offset));
+  offset += poses.size() * sizeof(double);
+  EF_RETURN_IF_ERROR(r.read(kKeyframes, frames.data(), frames.size() * sizeof(int32_t), offset));
+  Status s = kf.restore(static_cast<int32_t>(n), codes.data(), poses.data(), frames.data(), kh[2]);
+  if (!s.ok()) return error(ErrorCode::kCorruptData, r.path() + ": " + s.error().message);
+  return Status::success();
+}
+
 }  // namespace
 
 Result<slam::SurfelPool> load_checkpoint_pool(const FoundCheckpoint& found) {
@@ -230,9 +280,14 @@ Status restore_checkpoint(const FoundCheckpoint& found, slam::SurfelSlam& slam, 
   st.sweep_cursor = static_cast<int64_t>(s[17]);
   st.predicted_frame = static_cast<int32_t>(static_cast<int64_t>(s[18]));
   st.predicted_min_confidence = static_cast<float>(as_double(s[19]));
+  st.lost_run = static_cast<int64_t>(s[20]);
+  st.relocalisations = static_cast<int64_t>(s[21]);
+  st.inlier_average = as_double(s[22]);
+  st.inlier_samples = static_cast<int64_t>(s[23]);
   if (st.frames != found.meta.frames || st.sweep_cursor < 0 || st.sweep_cursor > n)
     return error(ErrorCode::kCorruptData, r.path() + ": sections SLAM and META disagree");
   EF_RETURN_IF_ERROR(slam.restore(st));
+  EF_RETURN_IF_ERROR(read_keyframes(r, slam.keyframes_for_restore()));
 
   // Counters by name: a name this run does not have is left out.
   std::string names(static_cast<std::size_t>(r.size(kCounterNames)), '\0');

@@ -4,10 +4,14 @@
 // Sections:
 //   META  run facts: frames mapped, the last frame's timestamp, trajectory.txt's length with their
 //         lines, the working size, the pool capacity, the run's seconds so far (32 words of 8 bytes)
-//   SLAM  SurfelSlam::State (poses, frame counts, the fusion sweep, the last prediction's arguments)
+//   SLAM  SurfelSlam::State (poses, frame counts, the fusion sweep, the last prediction's arguments,
+//         the loss in progress, relocalisations, the recent inlier average)
 //   POOL  the surfel pool: its size and counters, then each column's first `size` entries
 //         (x y z nx ny nz radius confidence: float; colour: uint32; init_time last_seen: int32;
 //         labels: 16 bytes), host order (little-endian on every target: checked at compile time)
+//   KEYF  the relocaliser's keyframes (slam/keyframe_ferns.h): count, ferns, refused, 0 (uint64),
+//         then the codes (count x ferns bytes), poses (count x 7 doubles: t xyz, q xyzw) and frame
+//         indices (int32); optional: a checkpoint without it resumes with no keyframes
 //   CNTN  the run's counter names (name bytes, NUL-terminated), CNTV their values (uint64)
 //
 // In the run folder: checkpoint.efs, and checkpoint.prev.efs the one before (a corrupt newest one,

@@ -26,10 +26,11 @@ Result<std::unique_ptr<MappingStage>> MappingStage::create(const slam::SurfelSla
     EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path, sync_seconds));
   int ids[std::size(kStageNames)];
   for (std::size_t i = 0; i < std::size(kStageNames); ++i) ids[i] = stats.add_stage(kStageNames[i]);
-  m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8], ids[9]};
-  m->c_ = CounterIds{stats.add_counter("frames"), stats.add_counter("frames_with_pose"),
+  m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8], ids[9], ids[10], ids[11]};
+  m->c_ = CounterIds{stats.add_counter("frames"),          stats.add_counter("frames_with_pose"),
                      stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
-                     stats.add_counter("fused_frames")};
+                     stats.add_counter("fused_frames"),    stats.add_counter("relocalisations"),
+                     stats.add_counter("frames_lost_before_relocalisation"), stats.add_counter("keyframes")};
   return m;
 }
 
@@ -47,6 +48,9 @@ Status MappingStage::step(const PreparedFrame& slot) {
   if (result_.fused) stats_.record_ms(st_.fuse, result_.timings.fuse_ms);
   if (result_.fused) stats_.record_ms(st_.predict, result_.timings.predict_ms);
   stats_.record_ms(st_.slam, result_.timings.total_ms);
+  // Only on the frames that do it: lost ones (and the one that resumes), tracked ones.
+  if (result_.lost || result_.relocalised) stats_.record_ms(st_.relocalise, result_.timings.relocalise_ms);
+  if (result_.fused && frames_ > 0) stats_.record_ms(st_.keyframe, result_.timings.keyframe_ms);
   if (semantics_ != nullptr && cnn_ != nullptr)
     EF_RETURN_IF_ERROR(semantics_->on_frame(slot.number, frame, slot.cnn_wait, result_, slam_, *cnn_));
 
@@ -54,14 +58,24 @@ Status MappingStage::step(const PreparedFrame& slot) {
     std::snprintf(line_, sizeof line_, "lost %.6f %s", frame.timestamp,
                   slam::track_lost_reason_name(result_.track.reason));
     EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
+  } else if (result_.relocalised) {
+    if (result_.keyframe >= 0)
+      std::snprintf(line_, sizeof line_, "relocalised %.6f after %lld lost frames, at keyframe %d (frame %d)",
+                    frame.timestamp, static_cast<long long>(result_.lost_before), static_cast<int>(result_.keyframe),
+                    static_cast<int>(slam_.keyframes().frame(result_.keyframe)));
+    else
+      std::snprintf(line_, sizeof line_, "relocalised %.6f after %lld lost frames, from the last good pose",
+                    frame.timestamp, static_cast<long long>(result_.lost_before));
+    EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
   }
   EF_RETURN_IF_ERROR(trajectory_.write(frame.timestamp, result_.T_world_cam));
   if (log_ != nullptr) {
     // A failed log keeps its first error, reported with the outputs; the mapping goes on.
     (void)log_->log_pose(frame.timestamp, result_.T_world_cam, *log_encoder_);
-    if (result_.lost != was_lost_)
+    // The loss, and the relocalisation that ends it (line_ says which of the two).
+    if (result_.lost != was_lost_ || result_.relocalised)
       (void)log_->log_text(frame.timestamp, result_.lost ? foxglove::LogLevel::kWarning : foxglove::LogLevel::kInfo,
-                           result_.lost ? line_ : "tracking regained", *log_encoder_);
+                           line_, *log_encoder_);
     was_lost_ = result_.lost;
   }
   stats_.increment(c_.frames);
@@ -69,6 +83,9 @@ Status MappingStage::step(const PreparedFrame& slot) {
   stats_.increment(c_.with_labels, frame.has_labels ? 1 : 0);
   stats_.increment(c_.lost, result_.lost ? 1 : 0);
   stats_.increment(c_.fused, result_.fused ? 1 : 0);
+  stats_.increment(c_.relocalisations, result_.relocalised ? 1 : 0);
+  stats_.increment(c_.lost_before_relocalisation, result_.relocalised ? static_cast<uint64_t>(result_.lost_before) : 0);
+  stats_.increment(c_.keyframes, result_.new_keyframe ? 1 : 0);
   ++frames_;
   last_timestamp_ = frame.timestamp;
   stats_.record_ms(st_.mapping, ms_since(t_start));

@@ -32,8 +32,9 @@ class MappingStage {
  public:
   // The stages it records into StageStats: the front step's (measured on its thread, carried in
   // the slot), the SLAM's steps and their sum, and the whole mapping step.
-  static constexpr const char* kStageNames[] = {"source", "resample", "preprocess", "front_total", "track",
-                                                "fuse",   "predict",  "slam_total", "mapping_total", "log"};
+  static constexpr const char* kStageNames[] = {"source",        "resample", "preprocess", "front_total",
+                                                "track",         "fuse",     "predict",    "slam_total",
+                                                "mapping_total", "log",      "relocalise", "keyframe"};
 
   // options: the run's SLAM (the front step preprocesses, so the SLAM gets no preprocessor of its
   // own: options.own_preprocessor is set false here). working: intrinsics at the working
@@ -94,10 +95,10 @@ class MappingStage {
   double last_timestamp_ = 0;  // of the last mapped frame
   char line_[128] = {};  // the '# lost' comment, formatted without the heap
   struct StageIds {
-    int source, resample, preprocess, front, track, fuse, predict, slam, mapping, log;
+    int source, resample, preprocess, front, track, fuse, predict, slam, mapping, log, relocalise, keyframe;
   } st_{};
   struct CounterIds {
-    int frames, with_pose, with_labels, lost, fused;
+    int frames, with_pose, with_labels, lost, fused, relocalisations, lost_before_relocalisation, keyframes;
   } c_{};
 };
 

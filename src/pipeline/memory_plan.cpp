@@ -118,6 +118,9 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
   add("model prediction", slam::ModelPredictor::bytes_for(w, h, levels, slam.prediction),
       std::to_string(scale) + "x index map " + size_text(w * scale, h * scale) + " + " + std::to_string(levels) +
           " predicted levels");
+  add("keyframe ferns", slam::KeyframeFerns::bytes_for(slam.ferns),
+      std::to_string(slam.ferns.capacity) + " keyframes x (" + std::to_string(slam.ferns.ferns) +
+          " fern codes + pose + frame), for relocalisation");
   add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, scale, capacity, slam.fusion),
       "marks per index cell, seen surfels, the lifetime sweep, per-pixel measurements");
   const size_t stages = std::size(MappingStage::kStageNames) + (labels ? std::size(RunSemantics::kStageNames) : 0) +

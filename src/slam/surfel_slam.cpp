@@ -20,6 +20,14 @@ const opt::Table<SurfelSlamOptions>& SurfelSlamOptions::table() {
        opt::any(),
        "fusion associates each frame through an index map rendered at its tracked pose (ElasticFusion); false = the "
        "previous pose's, one render less per frame but duplicate surfels wherever known surface enters the view"},
+      {"relocalisation", "", "", &SurfelSlamOptions::relocalisation, "", opt::any(),
+       "a lost frame is looked up among the fern keyframes and tracked against the model at the most similar ones' "
+       "poses; false = tracked again from the last good pose only"},
+      {"lost_inlier_drop", "", "", &SurfelSlamOptions::lost_inlier_drop, "fraction", opt::between(0, 1),
+       "a tracked frame is lost when its inlier fraction falls below this fraction of the recent frames' (a jumped "
+       "camera tracked to a wrong pose); 0 = off"},
+      {"relocalisation_candidates", "", "", &SurfelSlamOptions::relocalisation_candidates, "keyframes",
+       opt::between(1, 16), "keyframes tried per lost frame, the most similar first"},
   };
   return t;
 }
@@ -31,6 +39,8 @@ Status SurfelSlamOptions::validate() const {
   EF_RETURN_IF_ERROR(fusion.validate());
   EF_RETURN_IF_ERROR(pool.validate());
   EF_RETURN_IF_ERROR(spatial_order.validate());
+  EF_RETURN_IF_ERROR(ferns.validate());
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "slam"));
   if (fusion.stable_confidence != prediction.stable_confidence)
     return error(ErrorCode::kInvalidArgument,
                  "slam: fusion.stable_confidence " + std::to_string(fusion.stable_confidence) +
@@ -51,7 +61,9 @@ std::string SurfelSlamOptions::describe() const {
   std::ostringstream s;
   s << "# preprocess\n" << preprocess.describe() << "# tracker\n" << tracker.describe() << "# prediction\n"
     << prediction.describe() << "# fusion\n" << fusion.describe() << "# pool\n" << pool.describe()
-    << "# spatial order\n" << spatial_order.describe()
+    << "# spatial order\n" << spatial_order.describe() << "# keyframe ferns\n" << ferns.describe()
+    << "relocalisation: " << (relocalisation ? "true" : "false") << "  # lost frames looked up among the keyframes\n"
+    << "relocalisation_candidates: " << relocalisation_candidates << "  # keyframes tried per lost frame\n"
     << "associate_at_tracked_pose: " << (associate_at_tracked_pose ? "true" : "false")
     << "  # fusion associates through an index map at the tracked pose (false: the previous pose's)\n"
     << "constant_velocity_guess: " << (constant_velocity_guess ? "true" : "false")
@@ -77,8 +89,9 @@ Result<SurfelSlam> SurfelSlam::create(const Intrinsics& working, const SurfelSla
                                                                 options.pool.capacity, options.fusion));
   EF_ASSIGN_OR_RETURN(SurfelPool pool, SurfelPool::create(options.pool));
   EF_ASSIGN_OR_RETURN(SpatialOrder order, SpatialOrder::create(options.pool.capacity, options.spatial_order));
+  EF_ASSIGN_OR_RETURN(KeyframeFerns ferns, KeyframeFerns::create(working.width, working.height, options.ferns));
   SurfelSlam slam(options, working, std::move(pre), std::move(tracker), std::move(predictor), std::move(fusion),
-                  std::move(pool), std::move(order));
+                  std::move(pool), std::move(order), std::move(ferns));
   slam.T_world_last_ = options.initial_pose;
   // An empty index map at the initial pose: the first frame finds no candidates and creates surfels.
   slam.predicted_frame_ = 0;
@@ -97,6 +110,10 @@ SurfelSlam::State SurfelSlam::state() const {
   s.sweep_cursor = fusion_.sweep_cursor();
   s.predicted_frame = predicted_frame_;
   s.predicted_min_confidence = predicted_min_confidence_;
+  s.lost_run = lost_run_;
+  s.relocalisations = relocalisations_;
+  s.inlier_average = inlier_average_;
+  s.inlier_samples = inlier_samples_;
   return s;
 }
 
@@ -109,6 +126,11 @@ Status SurfelSlam::restore(const State& s) {
   fusion_.set_sweep_cursor(s.sweep_cursor);
   predicted_frame_ = s.predicted_frame;
   predicted_min_confidence_ = s.predicted_min_confidence;
+  lost_run_ = s.lost_run;
+  relocalisations_ = s.relocalisations;
+  inlier_average_ = s.inlier_average;
+  inlier_samples_ = s.inlier_samples;
+  prediction_stale_ = false;
   return predictor_.predict(pool_, T_world_last_, predicted_frame_, predicted_min_confidence_);
 }
 
@@ -159,16 +181,40 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
 
   // Track against the model predicted at the last good pose (none for the first frame).
   SE3 T_world_cur = T_world_last_;
+  const bool after_loss = lost_run_ > 0;
   if (fused_frames_ > 0) {
-    const SE3 guess = options_.constant_velocity_guess ? last_motion_ : SE3();
+    if (prediction_stale_) {
+      // A failed relocalisation left the predictor at a keyframe's pose.
+      t0 = Clock::now();
+      EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_world_last_, predicted_frame_, predicted_min_confidence_));
+      prediction_stale_ = false;
+      result->timings.relocalise_ms += ms_since(t0);
+    }
+    // With care after a loss: the motion before it says nothing about where the camera is now.
+    const SE3 guess = options_.constant_velocity_guess && !after_loss ? last_motion_ : SE3();
     t0 = Clock::now();
     EF_RETURN_IF_ERROR(tracker_.track(predictor_.pyramid_view(), pyramid_view(pre), guess, &result->track));
     result->timings.track_ms = ms_since(t0);
+    if (inliers_dropped(result->track)) {
+      result->track.lost = true;
+      result->track.reason = TrackLostReason::kInliersDropped;
+    }
+    if (!result->track.lost) {
+      T_world_cur = T_world_last_ * result->track.T_ref_cur;
+    } else if (options_.relocalisation && ferns_.size() > 0 && result->track.reason != TrackLostReason::kNoData) {
+      t0 = Clock::now();
+      EF_RETURN_IF_ERROR(relocalise(frame, pre, result, &T_world_cur));
+      result->timings.relocalise_ms += ms_since(t0);
+    }
     if (result->track.lost) {
       result->lost = true;
       ++lost_frames_;
-    } else {
-      T_world_cur = T_world_last_ * result->track.T_ref_cur;
+      ++lost_run_;
+    } else if (after_loss || result->keyframe >= 0) {
+      result->relocalised = true;
+      result->lost_before = lost_run_;
+      ++relocalisations_;
+      lost_run_ = 0;
     }
   } else {
     result->track.lost = false;
@@ -195,17 +241,57 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     result->timings.fuse_ms = ms_since(t0);
     result->fused = true;
     ++fused_frames_;
-    if (frames_ > 0) last_motion_ = result->track.T_ref_cur;
+    // Not across a gap, nor from a keyframe's pose: the next frame starts from no motion.
+    if (frames_ > 0) last_motion_ = after_loss || result->keyframe >= 0 ? SE3() : result->track.T_ref_cur;
     T_world_last_ = T_world_cur;
+
+    if (frames_ > 0) {
+      const double f = result->track.inlier_fraction;
+      inlier_average_ = inlier_samples_ == 0 ? f : 0.9 * inlier_average_ + 0.1 * f;
+      ++inlier_samples_;
+    }
+    // A new view becomes a keyframe (ferns of the raw frame; a relocalised frame too).
+    t0 = Clock::now();
+    ferns_.encode(frame.depth.view(), frame.color.view(), &code_);
+    result->new_keyframe = ferns_.add_if_novel(code_, T_world_cur, frame_index) >= 0;
+    result->timings.keyframe_ms = ms_since(t0);
 
     t0 = Clock::now();
     predicted_frame_ = frame_index;
     predicted_min_confidence_ = tracking_min_confidence();
     EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_world_cur, frame_index, predicted_min_confidence_));
+    prediction_stale_ = false;
     result->timings.predict_ms = ms_since(t0);
   }
   ++frames_;
   result->timings.total_ms = ms_since(t_start);
+  return Status::success();
+}
+
+bool SurfelSlam::inliers_dropped(const TrackResult& t) const {
+  constexpr int64_t kWarmUp = 10;  // tracked frames before the average is trusted
+  return !t.lost && options_.lost_inlier_drop > 0 && inlier_samples_ >= kWarmUp &&
+         t.inlier_fraction < options_.lost_inlier_drop * inlier_average_;
+}
+
+Status SurfelSlam::relocalise(const Frame& frame, const Preprocessor& pre, SlamFrameResult* result, SE3* T_world_cur) {
+  constexpr int kMaxCandidates = 16;
+  KeyframeMatch matches[kMaxCandidates];
+  ferns_.encode(frame.depth.view(), frame.color.view(), &code_);
+  const int n = ferns_.best_matches(code_, options_.ferns.match_threshold, matches,
+                                    std::min(options_.relocalisation_candidates, kMaxCandidates));
+  for (int i = 0; i < n; ++i) {
+    const SE3 T_kf = ferns_.pose(matches[i].keyframe);
+    EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_kf, predicted_frame_, predicted_min_confidence_));
+    prediction_stale_ = true;
+    TrackResult trial;
+    EF_RETURN_IF_ERROR(tracker_.track(predictor_.pyramid_view(), pyramid_view(pre), SE3(), &trial));
+    if (trial.lost || inliers_dropped(trial)) continue;
+    result->track = trial;
+    result->keyframe = matches[i].keyframe;
+    *T_world_cur = T_kf * trial.T_ref_cur;
+    return Status::success();
+  }
   return Status::success();
 }
 

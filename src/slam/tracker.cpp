@@ -146,6 +146,7 @@ const char* track_lost_reason_name(TrackLostReason r) {
     case TrackLostReason::kResidualTooLarge: return "residual too large";
     case TrackLostReason::kIllConditioned: return "ill-conditioned";
     case TrackLostReason::kDiverged: return "diverged";
+    case TrackLostReason::kInliersDropped: return "inliers dropped";
   }
   return "?";
 }

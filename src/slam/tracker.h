@@ -232,6 +232,7 @@ enum class TrackLostReason {
   kResidualTooLarge,
   kIllConditioned,  // condition number above lost_max_condition, or a singular system
   kDiverged,        // correction beyond lost_max_correction_*, or a non-finite step
+  kInliersDropped,  // far fewer inliers than the frames before it (SurfelSlamOptions::lost_inlier_drop)
 };
 const char* track_lost_reason_name(TrackLostReason r);
 

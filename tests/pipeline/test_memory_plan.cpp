@@ -48,7 +48,7 @@ TEST(PlanMemory, ListsEveryPartAndTheTotal) {
   }
   EXPECT_EQ(plan->total_bytes, sum);
   EXPECT_EQ(plan->budget_bytes, 256u * 1000 * 1000);
-  for (const char* part : {"source frame", "prepared frames", "slam tracker", "surfel pool", "surfel spatial order",
+  for (const char* part : {"source frame", "prepared frames", "slam tracker", "surfel pool", "surfel spatial order", "keyframe ferns",
                            "model prediction", "surfel fusion scratch", "stage statistics", "cnn model", "cnn arena",
                            "cnn packed weights", "segmenter buffers", "label fusion", "label rendering",
                            "map.ply class columns"})
@@ -108,6 +108,7 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   ASSERT_TRUE(slam.ok()) << to_string(slam.error());
   EXPECT_EQ(plan->bytes_of("surfel pool"), slam->pool_bytes());
   EXPECT_EQ(plan->bytes_of("surfel spatial order"), slam->spatial_order_bytes());
+  EXPECT_EQ(plan->bytes_of("keyframe ferns"), slam->keyframe_bytes());
   EXPECT_EQ(plan->bytes_of("model prediction"), slam->predictor().bytes());
   auto fusion = slam::SurfelFusion::create(working, so.prediction.index_map_scale, c.mapping.pool.capacity, so.fusion);
   ASSERT_TRUE(fusion.ok());
