@@ -106,6 +106,16 @@ class PanelObserver : public RunObserver {
     const slam::SlamFrameResult& r = pipeline.mapping().last_result();
     set_led(r.lost ? LedPattern::kLost : LedPattern::kTracking);
     const slam::SurfelSlam& slam = pipeline.slam();
+    if (!pool_full_warned_ && slam.pool().full()) {
+      // Once: from here on the map keeps the view by forgetting what it left longest ago.
+      pool_full_warned_ = true;
+      std::fprintf(stderr,
+                   "\n%s: warning: the surfel pool is full (%lld surfels, mapping.surfel_capacity) at frame %lld: "
+                   "from now on the surfels unseen longest are evicted for new ones (stats.json counts "
+                   "surfels_evicted and surfels_refused)\n",
+                   cmd_, static_cast<long long>(slam.pool().capacity()),
+                   static_cast<long long>(pipeline.mapping().frames() - 1));
+    }
     std::snprintf(line_, sizeof line_, "%s, %lld surfels, %lld lost, %lld relocalised, %lld dropped",
                   r.lost ? "LOST" : "tracking", static_cast<long long>(slam.pool().size()),
                   static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.relocalisations()),
@@ -137,6 +147,7 @@ class PanelObserver : public RunObserver {
   StopSignalScope stop_signal_;
   Progress progress_;
   bool panel_failed_ = false;
+  bool pool_full_warned_ = false;
   std::chrono::steady_clock::time_point start_;
   char line_[128] = {};
 };

@@ -77,6 +77,11 @@ Status MappingStage::step(const PreparedFrame& slot) {
       (void)log_->log_text(frame.timestamp, result_.lost ? foxglove::LogLevel::kWarning : foxglove::LogLevel::kInfo,
                            line_, *log_encoder_);
     was_lost_ = result_.lost;
+    if (!pool_full_logged_ && slam_.pool().full()) {
+      pool_full_logged_ = true;
+      (void)log_->log_text(frame.timestamp, foxglove::LogLevel::kWarning,
+                           "surfel pool full: evicting the surfels unseen longest from now on", *log_encoder_);
+    }
   }
   stats_.increment(c_.frames);
   stats_.increment(c_.with_pose, frame.has_pose ? 1 : 0);

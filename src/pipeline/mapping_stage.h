@@ -89,6 +89,7 @@ class MappingStage {
   McapFrameLog* log_ = nullptr;
   McapFrameLog::Encoder* log_encoder_ = nullptr;
   bool was_lost_ = false;
+  bool pool_full_logged_ = false;  // the field log's one line when the pool first fills
   TumTrajectoryWriter trajectory_;
   slam::SlamFrameResult result_;
   int64_t frames_ = 0;

@@ -32,7 +32,7 @@ Status SurfelPoolOptions::validate() const {
 std::string SurfelPoolOptions::describe() const {
   std::ostringstream s;
   s << "capacity: " << capacity << "  # surfels, " << SurfelPool::kBytesPerSurfel << " bytes each\n"
-    << "evict_unseen_frames: " << evict_unseen_frames << "  # frames; unstable surfels unseen this long may be evicted\n";
+    << "evict_unseen_frames: " << evict_unseen_frames << "  # frames; surfels unseen this long may be evicted (unstable first)\n";
   return s.str();
 }
 
@@ -176,42 +176,43 @@ int64_t SurfelPool::reserve_for_new(int64_t wanted, int32_t frame, float stable_
   if (room >= wanted) return wanted;
   const int64_t needed = wanted - room;
 
-  // Oldest first without sorting: histogram of the candidates' ages (frames since last seen, capped),
-  // then the smallest age threshold that yields `needed` candidates. Fixed-size, no allocation.
-  constexpr int kBuckets = 1024;
-  uint32_t histogram[kBuckets] = {};
+  // Eviction order by one key (higher goes first): every unstable candidate before every stable one,
+  // the oldest (frames since last seen, capped) first within each. Without sorting: a histogram of
+  // the keys, then the smallest key threshold that yields `needed` candidates. Fixed-size, no
+  // allocation.
+  constexpr int kAges = 1024;
+  constexpr int kKeys = 2 * kAges;
+  uint32_t histogram[kKeys] = {};
   const int32_t min_age = options_.evict_unseen_frames;
-  auto age_bucket = [&](int64_t i) {
+  auto key = [&](int64_t i) {
     const int64_t age = static_cast<int64_t>(frame) - last_seen_[i];
-    return static_cast<int>(std::min<int64_t>(age, kBuckets - 1));
+    if (age < min_age) return -1;  // seen recently: what tracking and fusion need now
+    return static_cast<int>(std::min<int64_t>(age, kAges - 1)) + (confidence_[i] < stable_confidence ? kAges : 0);
   };
   int64_t candidates = 0;
   for (int64_t i = 0; i < size_; ++i) {
-    if (confidence_[i] >= stable_confidence) continue;
-    const int b = age_bucket(i);
-    if (b < min_age) continue;
-    ++histogram[b];
+    const int k = key(i);
+    if (k < 0) continue;
+    ++histogram[k];
     ++candidates;
   }
   if (candidates == 0) return room;
-  int threshold = kBuckets - 1;
+  int threshold = kKeys - 1;
   int64_t above = 0;
-  for (; threshold >= min_age; --threshold) {
+  for (; threshold > 0; --threshold) {
     above += histogram[threshold];
     if (above >= needed) break;
   }
-  threshold = std::max(threshold, static_cast<int>(min_age));
 
   // Evict from high ids to low so that the surfel moved into a freed slot was already visited. Two
-  // passes: first every candidate strictly older than the threshold bucket (fewer than `needed`, so
-  // all of them go), then threshold-bucket ones until `needed`; a single pass in id order could
-  // spend the quota on threshold-age surfels with high ids and keep older ones with low ids.
+  // passes: first every candidate strictly above the threshold key (fewer than `needed`, so all of
+  // them go), then threshold-key ones until `needed`; a single pass in id order could spend the
+  // quota on threshold-key surfels with high ids and keep older ones with low ids.
   int64_t evicted = 0;
   for (int pass = 0; pass < 2; ++pass) {
-    const int min_bucket = pass == 0 ? threshold + 1 : threshold;
+    const int min_key = pass == 0 ? threshold + 1 : threshold;
     for (int64_t i = size_ - 1; i >= 0 && evicted < needed; --i) {
-      if (confidence_[i] >= stable_confidence) continue;
-      if (age_bucket(i) < min_bucket) continue;
+      if (key(i) < min_key) continue;
       evict(i);
       ++evicted;
     }

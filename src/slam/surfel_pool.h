@@ -23,9 +23,14 @@
 // slam/spatial_order.h) reorders all ids at once, every column moving with its surfel.
 //
 // Full pool policy (SurfelPool::reserve_for_new): new surfels are created while there is room. When
-// the pool is full, unstable surfels not seen for `evict_unseen_frames` frames are evicted (oldest
-// last_seen first, counted in `evicted`); new surfels that still do not fit are refused (counted in
-// `refused`). Stable surfels are never evicted: the tracked map is not damaged by a full pool.
+// the pool is full, room is made by evicting surfels not seen for `evict_unseen_frames` frames:
+// unstable ones first (never confirmed: noise and the fringe of the views), then stable ones, each
+// the longest unseen first (counted in `evicted`). What the current view shows was seen within the
+// last frames and stays, so the tracker keeps the model it needs, and a small pool maps what is in
+// front of the camera by forgetting what it left longest ago. New surfels that still do not fit
+// (the view alone needs more than the pool holds) are refused (counted in `refused`). Measured on
+// 7-Scenes (docs/results.md): a 100,000 or 20,000-surfel pool tracks all 1000 frames (ATE 3.7 and
+// 4.0 cm) where refusing new surfels once full lost 606 and 630 frames (68 and 64 cm).
 //
 // Memory: create() allocates everything; no other member allocates. Threads: not synchronised.
 #pragma once
@@ -43,8 +48,8 @@ namespace ef::slam {
 struct SurfelPoolOptions {
   // Maximum number of surfels (>= 1, at most 100,000,000). Default 1,000,000 (kBytesPerSurfel each).
   int64_t capacity = 1'000'000;
-  // When full: unstable surfels whose last_seen is at least this many frames old may be evicted to
-  // make room (frames, >= 1). Default 30 (about a second at 30 Hz).
+  // When full: surfels whose last_seen is at least this many frames old may be evicted to make room
+  // (frames, >= 1), unstable ones first. Default 30 (about a second at 30 Hz).
   int32_t evict_unseen_frames = 30;
 
   // The keys `run` offers (section mapping): surfel_capacity.
@@ -57,7 +62,7 @@ struct SurfelPoolOptions {
 struct SurfelPoolCounters {
   uint64_t created = 0;   // surfels appended
   uint64_t removed = 0;   // surfels removed by the map's own rules (stale, free space, merges)
-  uint64_t evicted = 0;   // unstable surfels removed to make room when the pool was full
+  uint64_t evicted = 0;   // surfels removed to make room when the pool was full
   uint64_t refused = 0;   // new surfels not created because the pool was full
 };
 
@@ -110,6 +115,7 @@ class SurfelPool {
   // Makes room for up to `wanted` new surfels at frame `frame` by the full-pool policy above
   // (evicting when needed) and returns how many may be appended now (<= wanted). Counts evictions;
   // the caller counts refusals with count_refused(). Unstable = confidence < stable_confidence.
+  // Time: two passes over the pool, only when it is full.
   int64_t reserve_for_new(int64_t wanted, int32_t frame, float stable_confidence);
   // Appends one surfel (the caller has reserved room); returns its id, or -1 (and counts a refusal)
   // when full. Labels are cleared to zero (issue 6: "uniform").

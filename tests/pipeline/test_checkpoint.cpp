@@ -89,7 +89,20 @@ TEST(Checkpoint, ARestoredSlamIsTheSavedOneAndGoesOnTheSame) {
     EXPECT_EQ(sa.sweep_cursor, sb.sweep_cursor);
     EXPECT_EQ(sa.predicted_frame, sb.predicted_frame);
     EXPECT_EQ(sa.predicted_min_confidence, sb.predicted_min_confidence);
+    EXPECT_EQ(sa.lost_run, sb.lost_run);
+    EXPECT_EQ(sa.relocalisations, sb.relocalisations);
+    EXPECT_EQ(sa.inlier_average, sb.inlier_average);
+    EXPECT_EQ(sa.inlier_samples, sb.inlier_samples);
     ASSERT_TRUE(same_pool(a->pool(), b->pool())) << "frame " << i;
+    // The relocaliser's keyframes, code for code and pose for pose.
+    const slam::KeyframeFerns &ka = a->keyframes(), &kb = b->keyframes();
+    ASSERT_GT(ka.size(), 0);
+    ASSERT_EQ(ka.size(), kb.size());
+    for (int32_t k = 0; k < ka.size(); ++k) {
+      EXPECT_EQ(std::memcmp(ka.code(k), kb.code(k), static_cast<std::size_t>(ka.ferns())), 0) << k;
+      EXPECT_TRUE(same_pose(ka.pose(k), kb.pose(k))) << k;
+      EXPECT_EQ(ka.frame(k), kb.frame(k));
+    }
   }
 
   // The next frames: the same poses and the same map, bit for bit.

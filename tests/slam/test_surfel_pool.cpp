@@ -212,12 +212,13 @@ TEST(SurfelPool, PermuteMovesEveryColumnAndKeepsCounters) {
 }
 
 // A full pool of 10 (evict_unseen_frames 30) at frame 200:
-//   tag 0..2  stable (confidence 20), last seen at frame 0 (age 200): never evicted
+//   tag 0..2  stable (confidence 20), last seen at frames 0, 20, 190 (ages 200, 180, 10): the first
+//             two go after every unstable candidate, the third (seen recently) never
 //   tag 3..6  unstable, ages 40, 100, 35, 50 (last_seen 160, 100, 165, 150)
 //   tag 7..9  unstable, seen recently (age 5): not evictable
 SurfelPool full_mixed_pool() {
   SurfelPool pool = make_pool(10, 30);
-  const int32_t last_seen[10] = {0, 0, 0, 160, 100, 165, 150, 195, 195, 195};
+  const int32_t last_seen[10] = {0, 20, 190, 160, 100, 165, 150, 195, 195, 195};
   for (int i = 0; i < 10; ++i) {
     append_tagged(pool, i);
     pool.confidence()[i] = i < 3 ? 20.0f : 2.0f;
@@ -273,30 +274,25 @@ TEST(SurfelPool, ReserveOldestFirstWhenOlderSurfelsHaveLowerIds) {
   EXPECT_EQ(pool.last_seen()[0], 60) << "the age-100 surfel must be evicted first";
 }
 
-TEST(SurfelPool, ReserveNeverEvictsStableOrRecentAndReportsShortfall) {
+TEST(SurfelPool, ReserveEvictsStableAfterUnstableNeverRecentAndReportsShortfall) {
   SurfelPool pool = full_mixed_pool();
-  // Only 4 surfels are evictable: asking for 6 gives 4, the caller counts the 2 refusals.
-  const int64_t got = pool.reserve_for_new(6, 200, 10.0f);
-  EXPECT_EQ(got, 4);
-  pool.count_refused(static_cast<uint64_t>(6 - got));
-  EXPECT_EQ(tags(pool), (std::vector<int>{0, 1, 2, 7, 8, 9}));
-  EXPECT_EQ(pool.counters().evicted, 4u);
-  EXPECT_EQ(pool.counters().refused, 2u);
-  // Nothing evictable is left: no room, nothing removed.
-  for (int i = 0; i < 4; ++i) append_tagged(pool, 20 + i), pool.last_seen()[pool.size() - 1] = 200;
+  // 6 surfels are evictable: the 4 old unstable ones, then the stable ones by age (200 before 180).
+  EXPECT_EQ(pool.reserve_for_new(5, 200, 10.0f), 5);
+  EXPECT_EQ(tags(pool), (std::vector<int>{1, 2, 7, 8, 9}));
+  EXPECT_EQ(pool.counters().evicted, 5u);
+  // Asking for more than is evictable gives what there is; the caller counts the refusals.
+  const int64_t got = pool.reserve_for_new(7, 200, 10.0f);
+  EXPECT_EQ(got, 6);  // 5 free slots + the age-180 stable surfel
+  pool.count_refused(static_cast<uint64_t>(7 - got));
+  EXPECT_EQ(tags(pool), (std::vector<int>{2, 7, 8, 9}));
+  EXPECT_EQ(pool.counters().evicted, 6u);
+  EXPECT_EQ(pool.counters().refused, 1u);
+  // Everything seen recently: no room, nothing removed.
+  for (int i = 0; i < 6; ++i) append_tagged(pool, 20 + i), pool.last_seen()[pool.size() - 1] = 200;
   ASSERT_TRUE(pool.full());
   EXPECT_EQ(pool.reserve_for_new(3, 200, 10.0f), 0);
   EXPECT_EQ(pool.size(), 10);
-  EXPECT_EQ(pool.counters().evicted, 4u);
-  // All stable: nothing is ever evicted, however old.
-  SurfelPool stable = make_pool(5, 1);
-  for (int i = 0; i < 5; ++i) {
-    append_tagged(stable, i);
-    stable.confidence()[i] = 10.0f;  // == threshold: stable
-    stable.last_seen()[i] = 0;
-  }
-  EXPECT_EQ(stable.reserve_for_new(2, 100000, 10.0f), 0);
-  EXPECT_EQ(stable.size(), 5);
+  EXPECT_EQ(pool.counters().evicted, 6u);
 }
 
 TEST(SurfelPool, ReserveTreatsVeryOldSurfelsAsCandidates) {

@@ -365,5 +365,127 @@ TEST(SurfelSlam, NoHeapAllocationPerFrameAfterWarmUp) {
   EXPECT_EQ(slam->lost_frames(), 0);
 }
 
+
+// ---- relocalisation (slam/keyframe_ferns.h) ----
+
+// Frames of a sequence kept in memory, so a test can replay them in any order.
+std::vector<Frame> load_frames(const std::string& uri, int count) {
+  WorkingFrames src(uri);
+  std::vector<Frame> frames;
+  for (int i = 0; i < count; ++i) {
+    const Frame* f = src.next();
+    if (f == nullptr) break;
+    frames.push_back(*f);
+  }
+  return frames;
+}
+
+// Distance between the estimated pose and the reference, both relative to frame 0.
+double pose_error_m(const Frame& first, const Frame& f, const SE3& estimate) {
+  const SE3 reference = first.T_wc.inverse() * f.T_wc;
+  return (reference.translation() - estimate.translation()).norm();
+}
+
+const char* const kOffice600 = "synthetic:office?noise=1&frames=600&size=320x240";
+
+// The camera is carried back to where it started (a kidnap): the frame after the jump is lost by
+// the normal tracking, looked up among the keyframes and found again at the right place.
+TEST(SurfelSlam, KidnappedCameraIsRelocalisedAtAKeyframe) {
+  constexpr int kBefore = test::frames_native_or_emulated(90, 60);
+  const std::vector<Frame> frames = load_frames(kOffice600, kBefore);
+  ASSERT_EQ(frames.size(), static_cast<std::size_t>(kBefore));
+  for (bool relocalisation : {true, false}) {
+    SurfelSlamOptions options;
+    options.relocalisation = relocalisation;
+    auto slam = SurfelSlam::create(WorkingFrames(kOffice600).intrinsics(), options);
+    ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+    SlamFrameResult r;
+    for (int i = 0; i < kBefore; ++i) {
+      ASSERT_TRUE(slam->process(frames[i], &r).ok());
+      ASSERT_FALSE(r.lost) << "frame " << i;
+    }
+    EXPECT_GE(slam->keyframes().size(), 2);
+    const double moved = pose_error_m(frames[2], frames[kBefore - 1], SE3());
+    // Back to frames 2, 3, ...: the first of them must not be fused at a wrong pose.
+    int resumed_at = -1;
+    double worst_after = 0;
+    for (int i = 2; i < 12; ++i) {
+      ASSERT_TRUE(slam->process(frames[i], &r).ok());
+      if (!r.lost && resumed_at < 0) resumed_at = i;
+      if (!r.lost) worst_after = std::max(worst_after, pose_error_m(frames[0], frames[i], r.T_world_cam));
+    }
+    if (relocalisation) {
+      EXPECT_GT(moved, 0.1) << "the jump must be a real one";
+      EXPECT_EQ(resumed_at, 2) << "relocalised on the first frame after the jump";
+      // The estimate had drifted 1-2 cm on the way (noisy depth); the jump back was 1 m.
+      EXPECT_LT(worst_after, 0.04);
+      EXPECT_EQ(slam->relocalisations(), 1);
+    } else {
+      // Without it, the camera is never found again (or only at a wrong place).
+      EXPECT_TRUE(resumed_at < 0 || worst_after > 0.05) << resumed_at << " " << worst_after;
+    }
+  }
+}
+
+// A covered lens: frames of zero depth and black colour. Each is lost, nothing is fused (the map is
+// untouched), and the first real frame after them resumes tracking from the last good pose.
+TEST(SurfelSlam, CoveredLensIsLostWithoutGhostsThenResumed) {
+  constexpr int kBefore = test::frames_native_or_emulated(20, 10), kBlank = 10;
+  const std::vector<Frame> frames = load_frames(kOffice600, kBefore + 3);
+  ASSERT_EQ(frames.size(), static_cast<std::size_t>(kBefore + 3));
+  auto slam = SurfelSlam::create(WorkingFrames(kOffice600).intrinsics());
+  ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+  SlamFrameResult r;
+  for (int i = 0; i < kBefore; ++i) ASSERT_TRUE(slam->process(frames[i], &r).ok());
+  ASSERT_EQ(slam->lost_frames(), 0);
+  const double drift = pose_error_m(frames[0], frames[kBefore - 1], r.T_world_cam);  // before the loss
+  Frame blank = frames[0];
+  blank.depth.fill(0.0f);
+  blank.color.fill(Rgb8{0, 0, 0});
+  const uint64_t before = pool_hash(slam->pool());
+  const uint64_t created = slam->pool().counters().created;
+  for (int i = 0; i < kBlank; ++i) {
+    ASSERT_TRUE(slam->process(blank, &r).ok());
+    EXPECT_TRUE(r.lost);
+    EXPECT_FALSE(r.fused);
+  }
+  EXPECT_EQ(pool_hash(slam->pool()), before);
+  EXPECT_EQ(slam->pool().counters().created, created) << "surfels created during the loss";
+  for (int i = kBefore; i < kBefore + 3; ++i) {
+    ASSERT_TRUE(slam->process(frames[i], &r).ok());
+    EXPECT_FALSE(r.lost) << "frame " << i << ": " << track_lost_reason_name(r.track.reason);
+    if (i == kBefore) {
+      EXPECT_TRUE(r.relocalised);
+      EXPECT_EQ(r.lost_before, kBlank);
+    }
+    EXPECT_LT(pose_error_m(frames[0], frames[i], r.T_world_cam), drift + 0.005) << "frame " << i;
+  }
+  EXPECT_EQ(slam->lost_frames(), kBlank);
+  EXPECT_EQ(slam->relocalisations(), 1);
+}
+
+// Looking up keyframes and tracking against them allocates nothing either.
+TEST(SurfelSlam, NoHeapAllocationWhenRelocalising) {
+  const std::vector<Frame> frames = load_frames(kOffice600, 40);
+  ASSERT_EQ(frames.size(), 40u);
+  auto slam = SurfelSlam::create(WorkingFrames(kOffice600).intrinsics());
+  ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+  SlamFrameResult r;
+  for (int i = 0; i < 40; ++i) ASSERT_TRUE(slam->process(frames[i], &r).ok());
+  Frame blank = frames[0];
+  blank.depth.fill(0.0f);
+  blank.color.fill(Rgb8{0, 0, 0});
+  int64_t relocalised_at_keyframe = 0;
+  test::AllocationCounter count;
+  for (int i : {0, 1, 2}) {  // the jump back, found again at a keyframe
+    ASSERT_TRUE(slam->process(frames[i], &r).ok());
+    relocalised_at_keyframe += r.keyframe >= 0 ? 1 : 0;
+  }
+  ASSERT_TRUE(slam->process(blank, &r).ok());  // lost: no data
+  ASSERT_TRUE(slam->process(frames[3], &r).ok());
+  EXPECT_EQ(count.thread_allocations(), 0u);
+  EXPECT_GE(relocalised_at_keyframe, 1);
+}
+
 }  // namespace
 }  // namespace ef::slam
