@@ -60,8 +60,9 @@ Status MappingStage::step(const PreparedFrame& slot) {
     EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
   } else if (result_.relocalised) {
     if (result_.keyframe >= 0)
-      std::snprintf(line_, sizeof line_, "relocalised %.6f after %lld lost frames, at keyframe %d (frame %d)",
-                    frame.timestamp, static_cast<long long>(result_.lost_before), static_cast<int>(result_.keyframe),
+      std::snprintf(line_, sizeof line_, "relocalised %.6f after %lld lost frames (this one: %s), at keyframe %d (frame %d)",
+                    frame.timestamp, static_cast<long long>(result_.lost_before),
+                    slam::track_lost_reason_name(result_.tracking_lost), static_cast<int>(result_.keyframe),
                     static_cast<int>(slam_.keyframes().frame(result_.keyframe)));
     else
       std::snprintf(line_, sizeof line_, "relocalised %.6f after %lld lost frames, from the last good pose",

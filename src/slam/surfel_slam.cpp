@@ -203,6 +203,7 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
       T_world_cur = T_world_last_ * result->track.T_ref_cur;
     } else if (options_.relocalisation && ferns_.size() > 0 && result->track.reason != TrackLostReason::kNoData) {
       t0 = Clock::now();
+      result->tracking_lost = result->track.reason;
       EF_RETURN_IF_ERROR(relocalise(frame, pre, result, &T_world_cur));
       result->timings.relocalise_ms += ms_since(t0);
     }

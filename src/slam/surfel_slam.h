@@ -120,6 +120,8 @@ struct SlamFrameResult {
                               // from the last good pose: keyframe -1) and fused
   int32_t keyframe = -1;
   int64_t lost_before = 0;    // frames lost in a row before this one, on the frame that resumes
+  TrackLostReason tracking_lost = TrackLostReason::kNone;  // a frame found at a keyframe: why tracking
+                                                           // from the last good pose failed on it
   bool new_keyframe = false;  // this frame became a keyframe
   TrackResult track;     // meaningless for the first frame (nothing to track against); a relocalised
                          // frame's is relative to its keyframe's pose
