@@ -26,11 +26,14 @@ Result<std::unique_ptr<MappingStage>> MappingStage::create(const slam::SurfelSla
     EF_RETURN_IF_ERROR(m->trajectory_.open(trajectory_path, sync_seconds));
   int ids[std::size(kStageNames)];
   for (std::size_t i = 0; i < std::size(kStageNames); ++i) ids[i] = stats.add_stage(kStageNames[i]);
-  m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4], ids[5], ids[6], ids[7], ids[8], ids[9], ids[10], ids[11]};
+  m->st_ = StageIds{ids[0], ids[1], ids[2], ids[3], ids[4],  ids[5],  ids[6],
+                    ids[7], ids[8], ids[9], ids[10], ids[11], ids[12]};
   m->c_ = CounterIds{stats.add_counter("frames"),          stats.add_counter("frames_with_pose"),
                      stats.add_counter("frames_with_labels"), stats.add_counter("lost_frames"),
                      stats.add_counter("fused_frames"),    stats.add_counter("relocalisations"),
-                     stats.add_counter("frames_lost_before_relocalisation"), stats.add_counter("keyframes")};
+                     stats.add_counter("frames_lost_before_relocalisation"), stats.add_counter("keyframes"),
+                     stats.add_counter("loop_closures_local"), stats.add_counter("loop_closures_local_rejected"),
+                     stats.add_counter("loop_closures_global"), stats.add_counter("loop_closures_global_rejected")};
   return m;
 }
 
@@ -51,6 +54,7 @@ Status MappingStage::step(const PreparedFrame& slot) {
   // Only on the frames that do it: lost ones (and the one that resumes), tracked ones.
   if (result_.lost || result_.relocalised) stats_.record_ms(st_.relocalise, result_.timings.relocalise_ms);
   if (result_.fused && frames_ > 0) stats_.record_ms(st_.keyframe, result_.timings.keyframe_ms);
+  if (result_.timings.loop_ms > 0) stats_.record_ms(st_.loop, result_.timings.loop_ms);
   if (semantics_ != nullptr && cnn_ != nullptr)
     EF_RETURN_IF_ERROR(semantics_->on_frame(slot.number, frame, slot.cnn_wait, result_, slam_, *cnn_));
 
@@ -68,6 +72,15 @@ Status MappingStage::step(const PreparedFrame& slot) {
       std::snprintf(line_, sizeof line_, "relocalised %.6f after %lld lost frames, from the last good pose",
                     frame.timestamp, static_cast<long long>(result_.lost_before));
     EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
+  }
+  if (result_.loop_kind != 0) {
+    std::snprintf(line_, sizeof line_, "loop closure %.6f %s %s: camera moved %.4f m, constraints %.4f -> %.4f m RMS",
+                  frame.timestamp, result_.loop_kind == 1 ? "local" : "global",
+                  result_.loop_accepted ? "accepted" : "rejected", result_.loop_correction_m,
+                  result_.deformation.rms_before_m, result_.deformation.rms_after_m);
+    EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
+    if (log_ != nullptr)
+      (void)log_->log_text(frame.timestamp, foxglove::LogLevel::kInfo, line_, *log_encoder_);
   }
   EF_RETURN_IF_ERROR(trajectory_.write(frame.timestamp, result_.T_world_cam));
   if (log_ != nullptr) {
@@ -92,6 +105,11 @@ Status MappingStage::step(const PreparedFrame& slot) {
   stats_.increment(c_.relocalisations, result_.relocalised ? 1 : 0);
   stats_.increment(c_.lost_before_relocalisation, result_.relocalised ? static_cast<uint64_t>(result_.lost_before) : 0);
   stats_.increment(c_.keyframes, result_.new_keyframe ? 1 : 0);
+  if (result_.loop_kind != 0) {
+    const bool local = result_.loop_kind == 1;
+    stats_.increment(result_.loop_accepted ? (local ? c_.loop_local_accepted : c_.loop_global_accepted)
+                                           : (local ? c_.loop_local_rejected : c_.loop_global_rejected));
+  }
   ++frames_;
   last_timestamp_ = frame.timestamp;
   stats_.record_ms(st_.mapping, ms_since(t_start));

@@ -34,7 +34,8 @@ class MappingStage {
   // the slot), the SLAM's steps and their sum, and the whole mapping step.
   static constexpr const char* kStageNames[] = {"source",        "resample", "preprocess", "front_total",
                                                 "track",         "fuse",     "predict",    "slam_total",
-                                                "mapping_total", "log",      "relocalise", "keyframe"};
+                                                "mapping_total", "log",      "relocalise", "keyframe",
+                                                "loop_check"};
 
   // options: the run's SLAM (the front step preprocesses, so the SLAM gets no preprocessor of its
   // own: options.own_preprocessor is set false here). working: intrinsics at the working
@@ -94,12 +95,13 @@ class MappingStage {
   slam::SlamFrameResult result_;
   int64_t frames_ = 0;
   double last_timestamp_ = 0;  // of the last mapped frame
-  char line_[128] = {};  // the '# lost' comment, formatted without the heap
+  char line_[160] = {};  // the '# lost' comment, formatted without the heap
   struct StageIds {
-    int source, resample, preprocess, front, track, fuse, predict, slam, mapping, log, relocalise, keyframe;
+    int source, resample, preprocess, front, track, fuse, predict, slam, mapping, log, relocalise, keyframe, loop;
   } st_{};
   struct CounterIds {
     int frames, with_pose, with_labels, lost, fused, relocalisations, lost_before_relocalisation, keyframes;
+    int loop_local_accepted, loop_local_rejected, loop_global_accepted, loop_global_rejected;
   } c_{};
 };
 

@@ -121,6 +121,13 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
   add("keyframe ferns", slam::KeyframeFerns::bytes_for(slam.ferns),
       std::to_string(slam.ferns.capacity) + " keyframes x (" + std::to_string(slam.ferns.ferns) +
           " fern codes + pose + frame), for relocalisation");
+  if (slam.loop_closure) {
+    const slam::DeformationGraphOptions graph = slam.graph.for_pool(capacity);
+    add("deformation graph", slam::DeformationGraph::bytes_for(graph),
+        std::to_string(graph.max_nodes) + " nodes (1 per " + std::to_string(graph.surfels_per_node) +
+            " surfels), their banded Gauss-Newton system (" + std::to_string(12 * (2 * graph.neighbours + 1)) +
+            " wide), " + std::to_string(graph.max_constraints) + " constraints, for loop closure");
+  }
   add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, scale, capacity, slam.fusion),
       "marks per index cell, seen surfels, the lifetime sweep, per-pixel measurements");
   const size_t stages = std::size(MappingStage::kStageNames) + (labels ? std::size(RunSemantics::kStageNames) : 0) +

@@ -28,6 +28,13 @@ Status DeformationGraphOptions::validate() const {
   return Status::success();
 }
 
+DeformationGraphOptions DeformationGraphOptions::for_pool(int64_t capacity) const {
+  DeformationGraphOptions o = *this;
+  const int64_t needed = (capacity + surfels_per_node - 1) / std::max(surfels_per_node, 1);
+  o.max_nodes = static_cast<int32_t>(std::clamp<int64_t>(needed, std::max(4, neighbours + 2), max_nodes));
+  return o;
+}
+
 std::size_t DeformationGraph::bytes_for(const DeformationGraphOptions& o) {
   const std::size_t n = static_cast<std::size_t>(std::max(o.max_nodes, 0));
   const std::size_t unknowns = n * kUnknownsPerNode;

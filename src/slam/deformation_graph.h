@@ -61,6 +61,10 @@ struct DeformationGraphOptions {
   double weight_rotation = 1.0, weight_regularisation = 10.0, weight_constraint = 100.0;  // > 0
 
   Status validate() const;
+  // These options with max_nodes cut to what a pool of `capacity` surfels can ever need (one node
+  // per surfels_per_node, at least neighbours + 2): what a SLAM allocates (1,000,000 surfels: 200
+  // nodes, 2.3 MB).
+  DeformationGraphOptions for_pool(int64_t capacity) const;
 };
 
 struct DeformationResult {

@@ -149,11 +149,13 @@ int KeyframeFerns::differing(const uint8_t* a, const uint8_t* b) const {
   return n;
 }
 
-int KeyframeFerns::best_matches(const FernCode& code, float max_dissimilarity, KeyframeMatch* out, int k) const {
+int KeyframeFerns::best_matches(const FernCode& code, float max_dissimilarity, KeyframeMatch* out, int k,
+                                int32_t frame_before) const {
   if (k <= 0) return 0;
   const float inv = 1.0f / static_cast<float>(options_.ferns);
   int count = 0;
   for (int32_t id = 0; id < size_; ++id) {
+    if (frames_[id] >= frame_before) continue;
     const float dis = static_cast<float>(differing(code.code.data(), this->code(id))) * inv;
     if (dis > max_dissimilarity) continue;
     // Insertion into the sorted top-k (k is a handful).

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstddef>
+#include <climits>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -82,9 +83,11 @@ class KeyframeFerns {
   // must have the size create() was given. No allocation.
   void encode(ImageView<const float> depth, ImageView<const Rgb8> color, FernCode* out) const;
 
-  // The `k` most similar keyframes with dissimilarity <= max_dissimilarity, most similar first
-  // (fewer when fewer qualify); returns how many were written into out[0..k). No allocation.
-  int best_matches(const FernCode& code, float max_dissimilarity, KeyframeMatch* out, int k) const;
+  // The `k` most similar keyframes with dissimilarity <= max_dissimilarity, taken before frame
+  // `frame_before`, most similar first (fewer when fewer qualify); returns how many were written into
+  // out[0..k). No allocation.
+  int best_matches(const FernCode& code, float max_dissimilarity, KeyframeMatch* out, int k,
+                   int32_t frame_before = INT32_MAX) const;
   // The dissimilarity to the most similar keyframe (1 when there is none).
   float nearest_dissimilarity(const FernCode& code) const;
   // Adds `code` as a keyframe at pose T_world_cam, frame index `frame`, when it is novel (see above)

@@ -44,6 +44,8 @@ struct ModelPredictor::Pose {
   float c[3];          // camera centre in the world frame, metres
   float min_confidence;
   int32_t oldest_frame;  // surfels with last_seen < this are outside the active window
+  int32_t seen_before;   // and those with last_seen >= this are left out too (the inactive model)
+  int32_t index_oldest = INT32_MIN;  // the index map's own window: surfels last seen before are left out
 };
 
 const opt::Table<PredictionOptions>& PredictionOptions::table() {
@@ -180,7 +182,8 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
   return predict(pool, T_world_cam, frame_index, options_.stable_confidence);
 }
 
-ModelPredictor::Pose ModelPredictor::make_pose(const SE3& T_world_cam, float min_confidence, int32_t oldest_frame) {
+ModelPredictor::Pose ModelPredictor::make_pose(const SE3& T_world_cam, float min_confidence, int32_t oldest_frame,
+                                               int32_t seen_before) {
   Pose pose;
   const SE3 T_cw = T_world_cam.inverse();
   const Eigen::Matrix3d R = T_cw.rotation_matrix();
@@ -191,22 +194,32 @@ ModelPredictor::Pose ModelPredictor::make_pose(const SE3& T_world_cam, float min
   }
   pose.min_confidence = min_confidence;
   pose.oldest_frame = oldest_frame;
+  pose.seen_before = seen_before;
   return pose;
 }
 
 Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index,
                                float tracking_min_confidence) {
+  // In 64 bits: frame_index - window may be below INT32_MIN.
+  const int64_t oldest =
+      options_.active_window_frames == 0 ? INT32_MIN : static_cast<int64_t>(frame_index) - options_.active_window_frames;
+  return predict_seen(pool, T_world_cam, tracking_min_confidence,
+                      static_cast<int32_t>(std::max<int64_t>(oldest, INT32_MIN)), INT32_MAX);
+}
+
+Status ModelPredictor::predict_inactive(const SurfelPool& pool, const SE3& T_world_cam, int32_t seen_before,
+                                        float tracking_min_confidence) {
+  return predict_seen(pool, T_world_cam, tracking_min_confidence, INT32_MIN, seen_before);
+}
+
+Status ModelPredictor::predict_seen(const SurfelPool& pool, const SE3& T_world_cam, float tracking_min_confidence,
+                                    int32_t oldest, int32_t seen_before) {
   if (!(tracking_min_confidence >= 0.0f) || !std::isfinite(tracking_min_confidence))
     return error(ErrorCode::kInvalidArgument, "ModelPredictor::predict: tracking_min_confidence " +
                                                   std::to_string(tracking_min_confidence) + " must be finite and >= 0");
   Clock::time_point t = Clock::now();
   const Clock::time_point start = t;
-
-  // In 64 bits: frame_index - window may be below INT32_MIN.
-  const int64_t oldest =
-      options_.active_window_frames == 0 ? INT32_MIN : static_cast<int64_t>(frame_index) - options_.active_window_frames;
-  const Pose pose =
-      make_pose(T_world_cam, tracking_min_confidence, static_cast<int32_t>(std::max<int64_t>(oldest, INT32_MIN)));
+  const Pose pose = make_pose(T_world_cam, tracking_min_confidence, oldest, seen_before);
 
   counters_ = PredictionCounters{};
   maps_pose_ = T_world_cam;
@@ -232,10 +245,11 @@ Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, i
   return Status::success();
 }
 
-void ModelPredictor::render_index_map(const SurfelPool& pool, const SE3& T_world_cam) {
+void ModelPredictor::render_index_map(const SurfelPool& pool, const SE3& T_world_cam, int32_t seen_since) {
   // No surfel reaches an infinite confidence, so none is a tracking candidate: render() draws no disc
   // and leaves the tracking maps as the last predict() made them.
-  const Pose pose = make_pose(T_world_cam, kInf, INT32_MIN);
+  Pose pose = make_pose(T_world_cam, kInf, INT32_MIN, INT32_MAX);
+  pose.index_oldest = seen_since;
   index_map_.T_world_cam = T_world_cam;
   clear_index_map();
   PredictionCounters counters;
@@ -286,7 +300,7 @@ struct Projection {
 void transform_block(const float* __restrict x, const float* __restrict y, const float* __restrict z,
                      const float* __restrict nx, const float* __restrict ny, const float* __restrict nz,
                      const float* __restrict conf, const int32_t* __restrict last_seen, int n, const float* r,
-                     const float* t, const float* c, float min_confidence, int32_t oldest_frame,
+                     const float* t, const float* c, float min_confidence, int32_t oldest_frame, int32_t seen_before,
                      const Projection& k, Block& b) {
   const float r00 = r[0], r01 = r[1], r02 = r[2], r10 = r[3], r11 = r[4], r12 = r[5], r20 = r[6], r21 = r[7], r22 = r[8];
   const float t0 = t[0], t1 = t[1], t2 = t[2], c0 = c[0], c1 = c[1], c2 = c[2];
@@ -323,7 +337,7 @@ void transform_block(const float* __restrict x, const float* __restrict y, const
     const float facing = nx[i] * (c0 - px) + ny[i] * (c1 - py) + nz[i] * (c2 - pz);
     const bool near_image = (u >= k.cand_u_lo) & (u <= k.cand_u_hi) & (v >= k.cand_v_lo) & (v <= k.cand_v_hi);
     candidate[i] = static_cast<int32_t>(in_range & near_image & (facing > 0.0f) & (conf[i] >= min_confidence) &
-                                        (last_seen[i] >= oldest_frame));
+                                        (last_seen[i] >= oldest_frame) & (last_seen[i] < seen_before));
   }
 }
 
@@ -463,7 +477,7 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, Prediction
     const int n = static_cast<int>(std::min<int64_t>(kBlock, size - begin));
     transform_block(pool.x() + begin, pool.y() + begin, pool.z() + begin, pool.nx() + begin, pool.ny() + begin,
                     pool.nz() + begin, pool.confidence() + begin, pool.last_seen() + begin, n, pose.r, pose.t, pose.c,
-                    pose.min_confidence, pose.oldest_frame, k, b);
+                    pose.min_confidence, pose.oldest_frame, pose.seen_before, k, b);
     for (int i = 0; i < n; ++i) {
       const int32_t p = b.pixel[i];
       if (p < 0) continue;
@@ -484,9 +498,10 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, Prediction
     // its normal and confidence that fusion gates on (slam/index_map.h).
     const float *nx = pool.nx() + begin, *ny = pool.ny() + begin, *nz = pool.nz() + begin;
     const float* conf = pool.confidence() + begin;
+    const int32_t* seen = pool.last_seen() + begin;
     for (int i = 0; i < n; ++i) {
       const int32_t p = b.pixel[i];
-      if (p < 0) continue;
+      if (p < 0 || seen[i] < pose.index_oldest) continue;
       ++drawn;
       const float d = depths[p];
       if (d == 0.0f || b.zc[i] < d) {

@@ -51,6 +51,7 @@
 // Threads: one ModelPredictor per thread; predict() and the accessors must not run concurrently.
 #pragma once
 
+#include <climits>
 #include <cstdint>
 #include <string>
 
@@ -177,12 +178,18 @@ class ModelPredictor {
   // tracking_min_confidence. No heap allocation.
   Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index);
   Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index, float tracking_min_confidence);
+  // The inactive model (ElasticFusion's loop closure): the same maps from the surfels last seen
+  // before frame `seen_before` only, whatever their age. No heap allocation.
+  Status predict_inactive(const SurfelPool& pool, const SE3& T_world_cam, int32_t seen_before,
+                          float tracking_min_confidence);
 
   // Renders only the index map, at T_world_cam (the tracking maps stay those of the last predict()):
   // fusion associates a tracked frame through the map rendered at its own pose (ElasticFusion),
   // which costs the transform and scatter of the pool instead of a whole prediction (7-Scenes at
   // 320x240, bench_slam_stages: median 1.6 ms against 6.0 ms for predict()). No heap allocation.
-  void render_index_map(const SurfelPool& pool, const SE3& T_world_cam);
+  // seen_since: surfels last seen before this frame are left out (ElasticFusion's fusion sees the
+  // active model only); INT32_MIN = every surfel.
+  void render_index_map(const SurfelPool& pool, const SE3& T_world_cam, int32_t seen_since = INT32_MIN);
 
   // The index map of the last predict() or render_index_map() (its T_world_cam says which pose; ids
   // valid until the pool next removes a surfel).
@@ -209,7 +216,9 @@ class ModelPredictor {
  private:
   ModelPredictor() = default;
   struct Pose;  // the float camera transform of one render (model_prediction.cpp)
-  static Pose make_pose(const SE3& T_world_cam, float min_confidence, int32_t oldest_frame);
+  static Pose make_pose(const SE3& T_world_cam, float min_confidence, int32_t oldest_frame, int32_t seen_before);
+  Status predict_seen(const SurfelPool& pool, const SE3& T_world_cam, float tracking_min_confidence, int32_t oldest,
+                      int32_t seen_before);
   void clear_index_map();
   void clear_tracking_maps();
   // Index map, and the discs of the tracking candidates (none when pose.min_confidence is infinite).

@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <sstream>
+
+#include <Eigen/Geometry>
 
 namespace ef::slam {
 
@@ -26,6 +29,20 @@ const opt::Table<SurfelSlamOptions>& SurfelSlamOptions::table() {
       {"lost_inlier_drop", "", "", &SurfelSlamOptions::lost_inlier_drop, "fraction", opt::between(0, 1),
        "a tracked frame is lost when its inlier fraction falls below this fraction of the recent frames' (a jumped "
        "camera tracked to a wrong pose); 0 = off"},
+      {"loop_closure", "", "", &SurfelSlamOptions::loop_closure, "", opt::any(),
+       "register fused frames against the inactive model (local) and old keyframes (global) and deform the map "
+       "to close the loop"},
+      {"associate_active_only", "", "", &SurfelSlamOptions::associate_active_only, "", opt::any(),
+       "fusion associates with the active model only (ElasticFusion): revisits after the time window make new "
+       "surfels that loop closure deforms onto the old; false = with every surfel (the map absorbs small drift)"},
+      {"loop_check_every", "", "", &SurfelSlamOptions::loop_check_every, "fused frames", opt::between(1, 1000),
+       "how often the loop-closure check runs"},
+      {"loop_min_correction_m", "", "", &SurfelSlamOptions::loop_min_correction_m, "metres", opt::between(0, 1),
+       "a registration that moves the camera less (and turns it less than loop_min_correction_deg) closes nothing"},
+      {"loop_min_correction_deg", "", "", &SurfelSlamOptions::loop_min_correction_deg, "degrees", opt::between(0, 90),
+       "see loop_min_correction_m"},
+      {"loop_max_residual_m", "", "", &SurfelSlamOptions::loop_max_residual_m, "metres", opt::between(0, 1),
+       "a closure whose constraints stay further than this (RMS) from met after the optimisation is rejected"},
       {"relocalisation_candidates", "", "", &SurfelSlamOptions::relocalisation_candidates, "keyframes",
        opt::between(1, 16), "keyframes tried per lost frame, the most similar first"},
   };
@@ -40,6 +57,10 @@ Status SurfelSlamOptions::validate() const {
   EF_RETURN_IF_ERROR(pool.validate());
   EF_RETURN_IF_ERROR(spatial_order.validate());
   EF_RETURN_IF_ERROR(ferns.validate());
+  EF_RETURN_IF_ERROR(graph.validate());
+  if (loop_sample_step < 1 || loop_sample_step > 256)
+    return error(ErrorCode::kInvalidArgument, "slam: loop_sample_step " + std::to_string(loop_sample_step) +
+                                                  " is outside 1..256 pixels");
   EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "slam"));
   if (fusion.stable_confidence != prediction.stable_confidence)
     return error(ErrorCode::kInvalidArgument,
@@ -90,8 +111,13 @@ Result<SurfelSlam> SurfelSlam::create(const Intrinsics& working, const SurfelSla
   EF_ASSIGN_OR_RETURN(SurfelPool pool, SurfelPool::create(options.pool));
   EF_ASSIGN_OR_RETURN(SpatialOrder order, SpatialOrder::create(options.pool.capacity, options.spatial_order));
   EF_ASSIGN_OR_RETURN(KeyframeFerns ferns, KeyframeFerns::create(working.width, working.height, options.ferns));
+  std::optional<DeformationGraph> graph;
+  if (options.loop_closure) {
+    EF_ASSIGN_OR_RETURN(DeformationGraph g, DeformationGraph::create(options.graph.for_pool(options.pool.capacity)));
+    graph.emplace(std::move(g));
+  }
   SurfelSlam slam(options, working, std::move(pre), std::move(tracker), std::move(predictor), std::move(fusion),
-                  std::move(pool), std::move(order), std::move(ferns));
+                  std::move(pool), std::move(order), std::move(ferns), std::move(graph));
   slam.T_world_last_ = options.initial_pose;
   // An empty index map at the initial pose: the first frame finds no candidates and creates surfels.
   slam.predicted_frame_ = 0;
@@ -228,7 +254,9 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     // pose), then predict at the new pose.
     t0 = Clock::now();
     if (options_.associate_at_tracked_pose && fused_frames_ > 0) {
-      predictor_.render_index_map(pool_, T_world_cur);
+      const int32_t window = options_.prediction.active_window_frames;
+      predictor_.render_index_map(pool_, T_world_cur,
+                                  options_.associate_active_only && window > 0 ? frame_index - window : INT32_MIN);
       result->timings.index_ms = ms_since(t0);
     }
     EF_RETURN_IF_ERROR(fusion_.fuse(pre, frame.color.view(), T_world_cur, predictor_.index_map(), frame_index,
@@ -257,6 +285,14 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     result->new_keyframe = ferns_.add_if_novel(code_, T_world_cur, frame_index) >= 0;
     result->timings.keyframe_ms = ms_since(t0);
 
+    if (graph_ && fused_frames_ % options_.loop_check_every == 0) {
+      t0 = Clock::now();
+      EF_RETURN_IF_ERROR(check_loop(pre, frame_index, result, &T_world_cur));
+      T_world_last_ = T_world_cur;
+      result->T_world_cam = T_world_cur;
+      result->timings.loop_ms = ms_since(t0);
+    }
+
     t0 = Clock::now();
     predicted_frame_ = frame_index;
     predicted_min_confidence_ = tracking_min_confidence();
@@ -266,6 +302,101 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
   }
   ++frames_;
   result->timings.total_ms = ms_since(t_start);
+  return Status::success();
+}
+
+Status SurfelSlam::register_inactive(const Preprocessor& pre, const SE3& T_ref, const SE3& T_world_cur,
+                                     int32_t seen_before, bool* ok, SE3* T_loop) {
+  *ok = false;
+  EF_RETURN_IF_ERROR(predictor_.predict_inactive(pool_, T_ref, seen_before, options_.prediction.stable_confidence));
+  prediction_stale_ = true;
+  // Too little of the inactive model in view for the tracker's inlier tests: no registration to try.
+  const double pixels = static_cast<double>(working_.width) * working_.height;
+  if (static_cast<double>(predictor_.counters().valid_pixels) <
+      std::max(static_cast<double>(options_.tracker.lost_min_inliers), options_.tracker.lost_min_inlier_fraction * pixels))
+    return Status::success();
+  TrackResult trial;
+  EF_RETURN_IF_ERROR(tracker_.track(predictor_.pyramid_view(), pyramid_view(pre), T_ref.inverse() * T_world_cur, &trial));
+  // Not the inlier-drop test: the inactive model covers only part of the view (the surface left
+  // longest ago), so fewer inliers than in tracking are expected; the tracker's absolute tests hold.
+  if (trial.lost) return Status::success();
+  *ok = true;
+  *T_loop = T_ref * trial.T_ref_cur;
+  return Status::success();
+}
+
+Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, SlamFrameResult* result, SE3* T_world_cur) {
+  const int32_t window = options_.prediction.active_window_frames;
+  if (window <= 0 || frame_index <= window) return Status::success();
+  const int32_t seen_before = frame_index - window;
+  // Local: the inactive model where the camera is now.
+  bool ok = false;
+  SE3 T_loop;
+  EF_RETURN_IF_ERROR(register_inactive(pre, *T_world_cur, *T_world_cur, seen_before, &ok, &T_loop));
+  int kind = ok ? 1 : 0;
+  if (!ok) {
+    // Global: the keyframe most like this frame (code_: encoded for the keyframe test just before)
+    // among those taken before the active window.
+    KeyframeMatch match;
+    if (ferns_.best_matches(code_, options_.ferns.match_threshold, &match, 1, seen_before) == 1) {
+      EF_RETURN_IF_ERROR(register_inactive(pre, ferns_.pose(match.keyframe), *T_world_cur, seen_before, &ok, &T_loop));
+      kind = ok ? 2 : 0;
+    }
+  }
+  if (!ok) return Status::success();
+  result->loop_registered = true;
+  const SE3 correction = T_loop * T_world_cur->inverse();
+  const double moved_m = correction.translation().norm();
+  const double turned_deg = Eigen::AngleAxisd(correction.rotation()).angle() * 180.0 / M_PI;
+  if (moved_m < options_.loop_min_correction_m && turned_deg < options_.loop_min_correction_deg)
+    return Status::success();  // the map already meets itself here
+  result->loop_kind = kind;
+  result->loop_correction_m = moved_m;
+  int64_t& accepted = kind == 1 ? loops_.local_accepted : loops_.global_accepted;
+  int64_t& rejected = kind == 1 ? loops_.local_rejected : loops_.global_rejected;
+  if (moved_m > options_.tracker.lost_max_correction_m || turned_deg > options_.tracker.lost_max_correction_deg) {
+    ++rejected;
+    return Status::success();
+  }
+
+  // The current view's surface goes where the registration put it; the inactive surfels it
+  // registered against stay (pinned). The predictor still holds the inactive model at the
+  // registration's reference pose, its winner ids the surfels seen there.
+  Status built = graph_->build(pool_);
+  if (!built.ok()) {
+    ++rejected;
+    return Status::success();
+  }
+  const PyramidView view = pyramid_view(pre);
+  const ImageView<const Eigen::Vector3f> vertex = view.level[0].vertex;
+  const ImageView<const int32_t> ids = predictor_.surfel_ids();
+  const int step = options_.loop_sample_step;
+  for (int y = step / 2; y < vertex.height; y += step)
+    for (int x = step / 2; x < vertex.width; x += step) {
+      const Eigen::Vector3f& p = vertex(x, y);
+      if (p.z() > 0) {
+        const Eigen::Vector3d pd = p.cast<double>();
+        graph_->add_constraint((*T_world_cur * pd).cast<float>(), frame_index, (T_loop * pd).cast<float>());
+      }
+      if (y < ids.height && x < ids.width) {
+        const int32_t id = ids(x, y);
+        if (id >= 0 && id < pool_.size()) {
+          const Eigen::Vector3f v(pool_.x()[id], pool_.y()[id], pool_.z()[id]);
+          graph_->add_constraint(v, pool_.init_time()[id], v);
+        }
+      }
+    }
+  EF_RETURN_IF_ERROR(graph_->optimise(&result->deformation));
+  if (result->deformation.rms_after_m > options_.loop_max_residual_m) {
+    ++rejected;
+    return Status::success();
+  }
+  graph_->apply(pool_);
+  *T_world_cur = graph_->apply_pose(*T_world_cur, frame_index);
+  for (int32_t k = 0; k < ferns_.size(); ++k) ferns_.set_pose(k, graph_->apply_pose(ferns_.pose(k), ferns_.frame(k)));
+  last_motion_ = SE3();
+  result->loop_accepted = true;
+  ++accepted;
   return Status::success();
 }
 

@@ -98,10 +98,10 @@ TEST(Checkpoint, ARestoredSlamIsTheSavedOneAndGoesOnTheSame) {
     const slam::KeyframeFerns &ka = a->keyframes(), &kb = b->keyframes();
     ASSERT_GT(ka.size(), 0);
     ASSERT_EQ(ka.size(), kb.size());
-    for (int32_t k = 0; k < ka.size(); ++k) {
-      EXPECT_EQ(std::memcmp(ka.code(k), kb.code(k), static_cast<std::size_t>(ka.ferns())), 0) << k;
-      EXPECT_TRUE(same_pose(ka.pose(k), kb.pose(k))) << k;
-      EXPECT_EQ(ka.frame(k), kb.frame(k));
+    for (int32_t kf = 0; kf < ka.size(); ++kf) {
+      EXPECT_EQ(std::memcmp(ka.code(kf), kb.code(kf), static_cast<std::size_t>(ka.ferns())), 0) << kf;
+      EXPECT_TRUE(same_pose(ka.pose(kf), kb.pose(kf))) << kf;
+      EXPECT_EQ(ka.frame(kf), kb.frame(kf));
     }
   }
 

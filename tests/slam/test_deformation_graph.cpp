@@ -168,7 +168,9 @@ TEST(DeformationGraph, LabelsRideAlongWithTheirSurfels) {
     const Eigen::Vector3f n(pool.nx()[i], pool.ny()[i], pool.nz()[i]);
     EXPECT_NEAR(n.norm(), 1.0f, 1e-5f);
     moved += std::abs(pool.y()[i] - y0[i]) > 0.05f ? 1 : 0;
-    if (init[i] < 40) EXPECT_LT(std::abs(pool.y()[i] - y0[i]) + std::abs(pool.x()[i] - x0[i]), 0.004f) << i;
+    if (init[i] < 40) {
+      EXPECT_LT(std::abs(pool.y()[i] - y0[i]) + std::abs(pool.x()[i] - x0[i]), 0.004f) << i;
+    }
   }
   EXPECT_GT(moved, 300);  // the late part of the path moved
 }

@@ -391,10 +391,11 @@ const char* const kOffice600 = "synthetic:office?noise=1&frames=600&size=320x240
 // The camera is carried back to where it started (a kidnap): the frame after the jump is lost by
 // the normal tracking, looked up among the keyframes and found again at the right place.
 TEST(SurfelSlam, KidnappedCameraIsRelocalisedAtAKeyframe) {
-  constexpr int kBefore = test::frames_native_or_emulated(90, 60);
+  constexpr int kBefore = test::frames_native_or_emulated(90, 45);
   const std::vector<Frame> frames = load_frames(kOffice600, kBefore);
   ASSERT_EQ(frames.size(), static_cast<std::size_t>(kBefore));
   for (bool relocalisation : {true, false}) {
+    if (!relocalisation && test::kUnderEmulator) break;  // the contrast only natively (time under qemu)
     SurfelSlamOptions options;
     options.relocalisation = relocalisation;
     auto slam = SurfelSlam::create(WorkingFrames(kOffice600).intrinsics(), options);
@@ -487,5 +488,58 @@ TEST(SurfelSlam, NoHeapAllocationWhenRelocalising) {
   EXPECT_GE(relocalised_at_keyframe, 1);
 }
 
+// Loop closure on a short time window (ElasticFusion's active-only association): a pan out and back
+// (1 degree a frame) over noise-free renders, so that the way back sees surface last seen more than `window` frames
+// before, the inactive model. The check registers against it; with no drift to remove, the
+// registrations move the camera by less than the minimum correction and close nothing. With that
+// minimum at 0 every registration becomes a closure: each meets its constraints, and the trajectory
+// stays as accurate.
+TEST(SurfelSlam, LoopChecksRegisterAgainstTheInactiveModelAndCloseOnlyWhatIsOpen) {
+  // Needs 24 frames out (a shorter pan leaves too little inactive surface in view to register):
+  // about 2 minutes under qemu-user, for code that the other tests already run there.
+  if (test::kUnderEmulator) GTEST_SKIP() << "native only: 100 rendered and mapped frames";
+  constexpr int kOut = 24;
+  const std::string uri = "synthetic:office?noise=0&frames=1&size=320x240";
+  const std::unique_ptr<synth::SyntheticSource> src = test::open_synth(uri);
+  ASSERT_NE(src, nullptr);
+  const Intrinsics K = src->info().intrinsics;
+  synth::Renderer renderer(src->scene(), K);
+  const SE3 start = src->poses()[0];
+  Frame frame;
+  frame.allocate(K.width, K.height, true);
+  int registered[2] = {0, 0}, closed[2] = {0, 0};
+  double worst[2] = {0, 0};
+  for (int run = 0; run < 2; ++run) {
+    SurfelSlamOptions options;
+    options.associate_active_only = true;
+    options.prediction.active_window_frames = 8;
+    options.loop_check_every = 1;
+    if (run == 1) options.loop_min_correction_m = options.loop_min_correction_deg = 0.0f;
+    auto slam = SurfelSlam::create(K, options);
+    ASSERT_TRUE(slam.ok()) << to_string(slam.error());
+    SlamFrameResult r;
+    for (int i = 0; i <= 2 * kOut; ++i) {
+      const int step = i <= kOut ? i : 2 * kOut - i;
+      Vector6d pan;
+      pan << 0, 0, 0, 0, step * M_PI / 180.0, 0;
+      const SE3 truth = start * SE3::exp(pan);
+      renderer.render(truth, frame.color.view(), frame.depth.view(), frame.labels.view());
+      ASSERT_TRUE(slam->process(frame, &r).ok());
+      ASSERT_FALSE(r.lost) << "frame " << i;
+      registered[run] += r.loop_registered ? 1 : 0;
+      if (r.loop_accepted) {
+        ++closed[run];
+        EXPECT_LE(r.deformation.rms_after_m, options.loop_max_residual_m);
+      }
+      worst[run] = std::max(worst[run], ((start.inverse() * truth).translation() - r.T_world_cam.translation()).norm());
+    }
+  }
+  std::printf("loop checks: registered %d / %d, closed %d / %d; worst position error %.4f / %.4f m\n", registered[0],
+              registered[1], closed[0], closed[1], worst[0], worst[1]);
+  EXPECT_GT(registered[0], 3);
+  EXPECT_EQ(closed[0], 0);
+  EXPECT_GT(closed[1], 3);
+  EXPECT_LT(worst[1], worst[0] + 0.002);
+}
 }  // namespace
 }  // namespace ef::slam
