@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Never stay lost (issue 30): relocalisation and the full-pool policy, measured with `edgefusion run`.
+"""Never stay lost, close the loop (issue 30): relocalisation, the full-pool policy and loop closure,
+measured with `edgefusion run`.
 
 Real data: the 7-Scenes redkitchen frames (1000, geometry only: --no-labels), at the defaults.
   uninterrupted   the whole recording: ATE, lost frames, keyframes; the reference for the others
@@ -14,12 +15,21 @@ Real data: the 7-Scenes redkitchen frames (1000, geometry only: --no-labels), at
                   the end of the blank frames (--frames 530) minus that of one stopped before them
                   (--frames 500)
   small pools     --surfel-capacity 100000 and 20000: lost frames, ATE, evicted and refused surfels
+  loop closure    the uninterrupted run has it on (the default); the same with mapping.loop_closure
+                  false, and with ElasticFusion's association (mapping.associate_active_only true, so
+                  that revisits leave an inactive model to close against): closures, ATE, surfels
 Synthetic (regression and the issue's failing case): synthetic:random?seed=7&trajectory=inspect&
-camera=kinect with relocalisation on and off.
-Cost: the stages `keyframe` (encoding and the novelty test, every tracked frame) and `relocalise`
-(lost frames and the one that resumes) of stats.json: median and p95 ms.
+camera=kinect with relocalisation on and off; the 2000-frame living-room loop (several laps, 320x240)
+at the defaults and with ElasticFusion's association.
+Cost: the stages `keyframe` (encoding and the novelty test, every tracked frame), `relocalise` (lost
+frames and the one that resumes) and `loop_check` (every 10th fused frame; closures included) of
+stats.json: median and p95 ms, and the loop check's mean per frame.
 
-Usage: /usr/bin/python3 bench/relocalisation.py [--data DIR] [--edgefusion BIN] [--work DIR]
+--scans instead runs the eleven held-out 1200-frame inspecting scans of Table I (seeds 5001-5006 and
+the five built-in rooms, trajectory=inspect, 320x240) at the defaults: lost frames, relocalisations,
+loop closures and ATE of each (a ghosted map shows as lost frames and a large ATE).
+
+Usage: /usr/bin/python3 bench/relocalisation.py [--data DIR] [--edgefusion BIN] [--work DIR] [--scans]
 Prints a Markdown table. Exit status 2 when the data or the binary is missing.
 """
 import argparse
@@ -74,6 +84,7 @@ def main():
     ap.add_argument("--data", default=os.path.join(REPO, "..", "shared", "data", "7scenes-redkitchen"))
     ap.add_argument("--edgefusion", default=os.path.join(REPO, "build", "release", "firmware_app", "edgefusion"))
     ap.add_argument("--work", default="")
+    ap.add_argument("--scans", action="store_true", help="the eleven inspecting scans instead")
     a = ap.parse_args()
     if not os.path.isdir(a.data) or not os.path.isfile(a.edgefusion):
         print(f"relocalisation: needs {a.data} and {a.edgefusion}", file=sys.stderr)
@@ -84,6 +95,12 @@ def main():
     off = os.path.join(work, "off.yaml")
     with open(off, "w") as f:
         f.write("mapping:\n  relocalisation: false\n  lost_inlier_drop: 0\n")
+    lc_off = os.path.join(work, "loop-off.yaml")
+    with open(lc_off, "w") as f:
+        f.write("mapping:\n  loop_closure: false\n")
+    ef_assoc = os.path.join(work, "active-only.yaml")
+    with open(ef_assoc, "w") as f:
+        f.write("mapping:\n  associate_active_only: true\n")
 
     def mapped(name, uri, *extra):
         out = os.path.join(work, name)
@@ -94,15 +111,33 @@ def main():
             run([E, "convert", "--source", uri, "--to", "tum:" + ref, "--resolution", "80x60", "--quiet"])
         s = stats(out)
         traj = os.path.join(out, "trajectory.txt")
+        c = s["counters"]
         return {"dir": out, "traj": traj, "gt": os.path.join(ref, "groundtruth.txt"), "stats": s,
                 "ate": ate(E, os.path.join(ref, "groundtruth.txt"), traj)["ate_rmse_m"] * 100,
-                "lost": s["counters"]["lost_frames"], "reloc": s["counters"].get("relocalisations", 0),
-                "keyframes": s["counters"].get("keyframes", 0)}
+                "lost": c["lost_frames"], "reloc": c.get("relocalisations", 0),
+                "keyframes": c.get("keyframes", 0), "surfels": c.get("surfels_created", 0) - c.get("surfels_removed", 0)
+                - c.get("surfels_evicted", 0),
+                "loops": "%d / %d" % (c.get("loop_closures_local", 0) + c.get("loop_closures_global", 0),
+                                      c.get("loop_closures_local_rejected", 0) + c.get("loop_closures_global_rejected", 0))}
+
+    if a.scans:
+        print("| scan | frames lost | relocalisations | loop closures accepted / rejected | surfels | ATE mm |")
+        print("|---|---|---|---|---|---|")
+        for scan in [f"random?seed={s}" for s in range(5001, 5007)] + ["living_room", "bedroom", "office", "kitchen",
+                                                                          "library"]:
+            r = mapped("scan-" + scan.replace("random?seed=", ""),
+                       f"synthetic:{scan}{'&' if '?' in scan else '?'}trajectory=inspect&frames=1200&size=320x240")
+            print(f"| {scan} | {r['lost']} | {r['reloc']} | {r['loops']} | {r['surfels']} | {10 * r['ate']:.1f} |",
+                  flush=True)
+        print(f"work folder: {work}")
+        return 0
 
     kitchen = "7scenes:" + os.path.abspath(a.data)
     rows = []
     full = mapped("uninterrupted", kitchen)
     rows.append(("uninterrupted", "real", full, ""))
+    rows.append(("loop closure off", "real", mapped("loop-off", kitchen, "--config", lc_off), ""))
+    rows.append(("ElasticFusion's association", "real", mapped("active-only", kitchen, "--config", ef_assoc), ""))
 
     gap_t = 550 / 30.0  # 7-Scenes stamps are index / 30 s
     def after_gap(r, name):
@@ -139,13 +174,25 @@ def main():
         r = mapped(name.replace(" ", "-").replace(",", ""), s7, *extra)
         rows.append((name, "synthetic", r, ""))
 
-    print("| run | data | frames lost | relocalisations | keyframes | ATE cm | notes |")
-    print("|---|---|---|---|---|---|---|")
+    lap = "synthetic:?frames=2000&size=320x240"
+    rows.append(("2000-frame loop", "synthetic", mapped("lap", lap), ""))
+    rows.append(("2000-frame loop, ElasticFusion's association", "synthetic",
+                 mapped("lap-active-only", lap, "--config", ef_assoc), ""))
+
+    print("| run | data | frames lost | relocalisations | keyframes | loop closures accepted / rejected | surfels | ATE cm | notes |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for name, world, r, note in rows:
-        print(f"| {name} | {world} | {r['lost']} | {r['reloc']} | {r['keyframes']} | {r['ate']:.2f} | {note} |")
+        print(f"| {name} | {world} | {r['lost']} | {r['reloc']} | {r['keyframes']} | {r['loops']} | {r['surfels']} | "
+              f"{r['ate']:.2f} | {note} |")
     km, kp = stage(full["stats"], "keyframe")
     rm, rp = stage([r for n, _, r, _ in rows if n == "kidnap"][0]["stats"], "relocalise")
-    print(f"\nCost (uninterrupted run, `keyframe` stage, every tracked frame): median {km:.3f} ms, p95 {kp:.3f} ms; "
+    lm, lp = stage(full["stats"], "loop_check")
+    st = full["stats"]["stages"].get("loop_check", {})
+    per_frame = st.get("mean_ms", 0) * st.get("count", 0) / max(1, full["stats"]["counters"]["frames"])
+    am, ap = stage([r for n, _, r, _ in rows if n == "ElasticFusion's association"][0]["stats"], "loop_check")
+    print(f"\nCost (uninterrupted run): `keyframe` (every tracked frame) median {km:.3f} ms, p95 {kp:.3f} ms; "
+          f"`loop_check` (every 10th fused frame) median {lm:.2f} ms, p95 {lp:.2f} ms, {per_frame:.2f} ms per frame on "
+          f"average; with ElasticFusion's association (closures made) median {am:.2f} ms, p95 {ap:.2f} ms; "
           f"`relocalise` (kidnap run, lost and resuming frames): median {rm:.2f} ms, p95 {rp:.2f} ms")
     print(f"work folder: {work}")
     return 0
