@@ -132,6 +132,7 @@ int DeformationGraph::influences(const Eigen::Vector3d& v, int32_t tau, int32_t*
     dist[m] = (v - g_[j]).norm();
     ++m;
   }
+  if (m == 0) return 0;  // no nodes (not built): the point stays where it is
   // The k + 1 nearest first (selection: m <= 17).
   const int keep = std::min(m, k + 1);
   for (int a = 0; a < keep; ++a) {
@@ -358,6 +359,7 @@ Eigen::Vector3f DeformationGraph::apply_point(const Eigen::Vector3f& vf, int32_t
   double w[kMaxNeighbours];
   const Eigen::Vector3d v = vf.cast<double>();
   const int m = influences(v, tau, ids, w);
+  if (m == 0) return vf;
   Eigen::Vector3d out = Eigen::Vector3d::Zero();
   for (int i = 0; i < m; ++i) out += w[i] * (A_[ids[i]] * (v - g_[ids[i]]) + g_[ids[i]] + t_[ids[i]]);
   return out.cast<float>();
@@ -368,6 +370,7 @@ SE3 DeformationGraph::apply_pose(const SE3& T, int32_t tau) const {
   double w[kMaxNeighbours];
   const Eigen::Vector3d c = T.translation();
   const int m = influences(c, tau, ids, w);
+  if (m == 0) return T;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
   for (int i = 0; i < m; ++i) {
@@ -393,6 +396,7 @@ void DeformationGraph::apply(SurfelPool& pool) const {
   for (int64_t i = 0; i < pool.size(); ++i) {
     const Eigen::Vector3d v(x[i], y[i], z[i]);
     const int m = influences(v, init[i], ids, w);
+    if (m == 0) return;  // not built: nothing moves
     Eigen::Vector3d p = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
     const Eigen::Vector3d n0(nx[i], ny[i], nz[i]);
     for (int a = 0; a < m; ++a) {

@@ -118,6 +118,13 @@ TEST(DeformationGraph, TheConstraintTableIsBounded) {
   EXPECT_FALSE(g.add_constraint(Path::point(6), 6, Path::point(6)));
   EXPECT_EQ(g.constraints(), 5);
   EXPECT_FALSE(DeformationGraph::create(DeformationGraphOptions{2}).ok());  // max_nodes < 4
+  // Before build(): nothing moves, and optimise() says why.
+  DeformationGraph empty = make();
+  EXPECT_EQ(empty.apply_point(Eigen::Vector3f(1, 2, 3), 5), Eigen::Vector3f(1, 2, 3));
+  EXPECT_EQ(empty.apply_pose(SE3(Eigen::Matrix3d::Identity(), Eigen::Vector3d(1, 0, 0)), 5).translation(),
+            Eigen::Vector3d(1, 0, 0));
+  DeformationResult r;
+  EXPECT_FALSE(empty.optimise(&r).ok());
 }
 
 // A labelled map is deformed: every surfel keeps its label distribution, colour, confidence,
