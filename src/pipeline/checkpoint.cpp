@@ -112,7 +112,7 @@ Status write_checkpoint(const std::string& folder, const CheckpointMeta& meta, c
   s[19] = word(static_cast<double>(st.predicted_min_confidence));
   s[20] = static_cast<uint64_t>(st.lost_run);
   s[21] = static_cast<uint64_t>(st.relocalisations);
-  s[22] = word(st.inlier_average);
+  s[22] = word(st.inlier_reference);
   s[23] = static_cast<uint64_t>(st.inlier_samples);
   EF_RETURN_IF_ERROR(w.section(kSlam, s, sizeof s));
 
@@ -282,7 +282,7 @@ Status restore_checkpoint(const FoundCheckpoint& found, slam::SurfelSlam& slam, 
   st.predicted_min_confidence = static_cast<float>(as_double(s[19]));
   st.lost_run = static_cast<int64_t>(s[20]);
   st.relocalisations = static_cast<int64_t>(s[21]);
-  st.inlier_average = as_double(s[22]);
+  st.inlier_reference = as_double(s[22]);
   st.inlier_samples = static_cast<int64_t>(s[23]);
   if (st.frames != found.meta.frames || st.sweep_cursor < 0 || st.sweep_cursor > n)
     return error(ErrorCode::kCorruptData, r.path() + ": sections SLAM and META disagree");

@@ -27,7 +27,7 @@ const opt::Table<SurfelSlamOptions>& SurfelSlamOptions::table() {
        "a lost frame is looked up among the fern keyframes and tracked against the model at the most similar ones' "
        "poses; false = tracked again from the last good pose only"},
       {"lost_inlier_drop", "", "", &SurfelSlamOptions::lost_inlier_drop, "fraction", opt::between(0, 1),
-       "a tracked frame is lost when its inlier fraction falls below this fraction of the recent frames' (a jumped "
+       "a tracked frame is lost when its inlier fraction falls below this fraction of the last fused frame's (a jumped "
        "camera tracked to a wrong pose); 0 = off"},
       {"loop_closure", "", "", &SurfelSlamOptions::loop_closure, "", opt::any(),
        "register fused frames against the inactive model (local) and old keyframes (global) and deform the map "
@@ -138,7 +138,7 @@ SurfelSlam::State SurfelSlam::state() const {
   s.predicted_min_confidence = predicted_min_confidence_;
   s.lost_run = lost_run_;
   s.relocalisations = relocalisations_;
-  s.inlier_average = inlier_average_;
+  s.inlier_reference = inlier_reference_;
   s.inlier_samples = inlier_samples_;
   return s;
 }
@@ -154,7 +154,7 @@ Status SurfelSlam::restore(const State& s) {
   predicted_min_confidence_ = s.predicted_min_confidence;
   lost_run_ = s.lost_run;
   relocalisations_ = s.relocalisations;
-  inlier_average_ = s.inlier_average;
+  inlier_reference_ = s.inlier_reference;
   inlier_samples_ = s.inlier_samples;
   prediction_stale_ = false;
   return predictor_.predict(pool_, T_world_last_, predicted_frame_, predicted_min_confidence_);
@@ -275,8 +275,7 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     T_world_last_ = T_world_cur;
 
     if (frames_ > 0) {
-      const double f = result->track.inlier_fraction;
-      inlier_average_ = inlier_samples_ == 0 ? f : 0.9 * inlier_average_ + 0.1 * f;
+      inlier_reference_ = result->track.inlier_fraction;
       ++inlier_samples_;
     }
     // A new view becomes a keyframe (ferns of the raw frame; a relocalised frame too).
@@ -326,7 +325,7 @@ Status SurfelSlam::register_inactive(const Preprocessor& pre, const SE3& T_ref, 
   // on 7-Scenes lost 310 frames).
   const double covered = static_cast<double>(std::max<int64_t>(1, predictor_.counters().valid_pixels));
   const double agreement = static_cast<double>(trial.icp_inliers) / covered;
-  if (inlier_samples_ > 0 && agreement < options_.lost_inlier_drop * inlier_average_) return Status::success();
+  if (inlier_samples_ > 0 && agreement < options_.lost_inlier_drop * inlier_reference_) return Status::success();
   *ok = true;
   *T_loop = T_ref * trial.T_ref_cur;
   return Status::success();
@@ -408,9 +407,11 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
 }
 
 bool SurfelSlam::inliers_dropped(const TrackResult& t) const {
-  constexpr int64_t kWarmUp = 10;  // tracked frames before the average is trusted
-  return !t.lost && options_.lost_inlier_drop > 0 && inlier_samples_ >= kWarmUp &&
-         t.inlier_fraction < options_.lost_inlier_drop * inlier_average_;
+  constexpr int64_t kWarmUp = 10;         // tracked frames before the test applies
+  constexpr double kDecayPerLost = 0.95;  // the reference relaxes while lost (see the option)
+  if (t.lost || options_.lost_inlier_drop <= 0 || inlier_samples_ < kWarmUp) return false;
+  const double reference = inlier_reference_ * std::pow(kDecayPerLost, static_cast<double>(lost_run_));
+  return t.inlier_fraction < options_.lost_inlier_drop * reference;
 }
 
 Status SurfelSlam::relocalise(const Frame& frame, const Preprocessor& pre, SlamFrameResult* result, SE3* T_world_cur) {

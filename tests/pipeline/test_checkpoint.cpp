@@ -91,7 +91,7 @@ TEST(Checkpoint, ARestoredSlamIsTheSavedOneAndGoesOnTheSame) {
     EXPECT_EQ(sa.predicted_min_confidence, sb.predicted_min_confidence);
     EXPECT_EQ(sa.lost_run, sb.lost_run);
     EXPECT_EQ(sa.relocalisations, sb.relocalisations);
-    EXPECT_EQ(sa.inlier_average, sb.inlier_average);
+    EXPECT_EQ(sa.inlier_reference, sb.inlier_reference);
     EXPECT_EQ(sa.inlier_samples, sb.inlier_samples);
     ASSERT_TRUE(same_pool(a->pool(), b->pool())) << "frame " << i;
     // The relocaliser's keyframes, code for code and pose for pose.

