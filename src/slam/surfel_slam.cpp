@@ -319,7 +319,7 @@ Status SurfelSlam::register_inactive(const Preprocessor& pre, const SE3& T_ref, 
   if (trial.lost) return Status::success();
   // The inactive model covers only part of the view (the surface left longest ago), so the inliers
   // are judged against the pixels it covers: where it is, the frame must agree with it about as well
-  // as tracked frames agree with the active model (lost_inlier_drop of their recent inlier
+  // as tracked frames agree with the active model (lost_inlier_drop of the last fused frame's inlier
   // fraction). A registration that the tracker's own tests pass but this does not is a wrong
   // minimum; closing a loop on it would bend the map onto the wrong place (measured: one such closure
   // on 7-Scenes lost 310 frames).
