@@ -1,5 +1,7 @@
 #include "io/trajectory_io.h"
 
+#include "io/durable_file.h"
+
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -182,15 +184,23 @@ Status TumTrajectoryWriter::append(const char* line, std::size_t n) {
   return Status::success();
 }
 
-Status TumTrajectoryWriter::write(double timestamp, const SE3& T_wc) {
-  if (fd_ < 0) return error(ErrorCode::kInvalidArgument, "trajectory writer: write() before open()");
+namespace {
+// One pose line with its newline into `line` (256 bytes); returns its length, or 0 when it does not fit.
+int format_pose_line(char* line, double timestamp, const SE3& T_wc) {
   Eigen::Quaterniond q = T_wc.rotation();
   if (q.w() < 0) q.coeffs() = -q.coeffs();
   const Eigen::Vector3d& t = T_wc.translation();
+  const int n = std::snprintf(line, 256, "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", timestamp, t.x(), t.y(), t.z(),
+                              q.x(), q.y(), q.z(), q.w());
+  return n > 0 && n < 256 ? n : 0;
+}
+}  // namespace
+
+Status TumTrajectoryWriter::write(double timestamp, const SE3& T_wc) {
+  if (fd_ < 0) return error(ErrorCode::kInvalidArgument, "trajectory writer: write() before open()");
   char line[256];
-  const int n = std::snprintf(line, sizeof line, "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", timestamp, t.x(),
-                              t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
-  if (n <= 0 || n >= static_cast<int>(sizeof line)) return error(ErrorCode::kInvalidArgument, path_ + ": pose line too long");
+  const int n = format_pose_line(line, timestamp, T_wc);
+  if (n == 0) return error(ErrorCode::kInvalidArgument, path_ + ": pose line too long");
   return append(line, static_cast<std::size_t>(n));
 }
 
@@ -218,6 +228,58 @@ Status TumTrajectoryWriter::close() {
   fd_ = -1;
   return synced;
 }
+
+namespace detail {
+
+Result<TumRewrite> rewrite_tum_poses(const std::string& path, PoseCorrector correct, void* context,
+                                     const std::string& comment, std::size_t comment_key) {
+  if (comment.find('\n') != std::string::npos)
+    return error(ErrorCode::kInvalidArgument, path + ": a comment must be one line");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return error(ErrorCode::kNotFound, path + ": cannot open trajectory file to rewrite it");
+  std::string text, line;
+  TumRewrite counts;
+  Trajectory parsed;  // parse_line's: the last pose only (timestamps must still increase)
+  parsed.source = path;
+  bool next_lost = false;
+  int line_no = 0;
+  char pose_line[256];
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (in.eof())  // a last line without its newline: not one of ours
+      return error(ErrorCode::kCorruptData, where(path, line_no) + "the last line has no newline; not rewritten");
+    const bool earlier_comment = comment_key > 0 && line.size() >= 2 + comment_key &&
+                                 line.compare(0, 2, "# ") == 0 && line.compare(2, comment_key, comment, 0, comment_key) == 0;
+    if (earlier_comment) continue;
+    const std::size_t poses_before = parsed.poses.size();
+    EF_RETURN_IF_ERROR(parse_line(line, path, line_no, parsed, next_lost));
+    if (parsed.poses.size() > poses_before) {
+      TimedPose& p = parsed.poses.back();
+      SE3 T = p.T_wc;
+      int n = 0;
+      if (correct(context, p.timestamp, &T)) n = format_pose_line(pose_line, p.timestamp, T);
+      if (n > 0) {
+        text.append(pose_line, static_cast<std::size_t>(n));
+        ++counts.corrected;
+      } else {
+        text += line;
+        text += '\n';
+        ++counts.kept;
+      }
+      parsed.poses.erase(parsed.poses.begin(), parsed.poses.end() - 1);
+    } else {
+      text += line;
+      text += '\n';
+    }
+    if (line_no == 1 && !comment.empty()) text += "# " + comment + "\n";
+  }
+  if (in.bad()) return error(ErrorCode::kIoError, path + ": read failed after line " + std::to_string(line_no));
+  EF_RETURN_IF_ERROR(write_file_whole(path, {{text.data(), text.size()}}));
+  counts.bytes = static_cast<int64_t>(text.size());
+  return counts;
+}
+
+}  // namespace detail
 
 Status write_tum_trajectory(const std::string& path, const std::vector<TimedPose>& poses) {
   TumTrajectoryWriter w;

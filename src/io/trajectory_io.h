@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/result.h"
@@ -82,6 +83,34 @@ class TumTrajectoryWriter {
   int64_t last_sync_ns_ = 0;   // steady clock
   bool unsynced_ = false;      // lines written since the last sync
 };
+
+// Rewrites the pose lines of a TUM file through `correct`, called with each pose line's timestamp
+// and pose: when it returns true with a new pose, the line is written again with it (as
+// TumTrajectoryWriter writes lines); otherwise the line stays as it was, byte for byte, as do comments
+// and blank lines. `comment` (one line, may be empty: none) goes in as "# <comment>" after the first
+// line, replacing a line from an earlier rewrite that starts with the same first `comment_key` bytes.
+// The file is replaced whole (written beside it, synced, renamed: io/durable_file.h), so a crash
+// leaves the old version or the new one. Errors name the file and the line (a line that is not a
+// pose), or the write's reason; the file is then unchanged.
+struct TumRewrite {
+  int64_t bytes = 0;      // the new file's length
+  int64_t corrected = 0;  // pose lines written again
+  int64_t kept = 0;       // pose lines left as they were
+};
+template <typename F>
+Result<TumRewrite> rewrite_tum_poses(const std::string& path, F&& correct, const std::string& comment = {},
+                                     std::size_t comment_key = 0);
+namespace detail {
+using PoseCorrector = bool (*)(void* context, double timestamp, SE3* T_wc);
+Result<TumRewrite> rewrite_tum_poses(const std::string& path, PoseCorrector correct, void* context,
+                                     const std::string& comment, std::size_t comment_key);
+}  // namespace detail
+template <typename F>
+Result<TumRewrite> rewrite_tum_poses(const std::string& path, F&& correct, const std::string& comment,
+                                     std::size_t comment_key) {
+  auto call = [](void* c, double t, SE3* T) -> bool { return (*static_cast<std::remove_reference_t<F>*>(c))(t, T); };
+  return detail::rewrite_tum_poses(path, call, &correct, comment, comment_key);
+}
 
 // Convenience: writes a whole trajectory.
 Status write_tum_trajectory(const std::string& path, const std::vector<TimedPose>& poses);

@@ -14,8 +14,8 @@ namespace {
 
 constexpr char kMeta[4] = {'M', 'E', 'T', 'A'}, kSlam[4] = {'S', 'L', 'A', 'M'}, kPool[4] = {'P', 'O', 'O', 'L'},
                kCounterNames[4] = {'C', 'N', 'T', 'N'}, kCounterValues[4] = {'C', 'N', 'T', 'V'},
-               kKeyframes[4] = {'K', 'E', 'Y', 'F'};
-constexpr int kKeyframeHeaderWords = 4;
+               kKeyframes[4] = {'K', 'E', 'Y', 'F'}, kPoses[4] = {'P', 'O', 'S', 'E'};
+constexpr int kKeyframeHeaderWords = 4, kPoseHeaderWords = 4;
 constexpr int kMetaWords = 32, kSlamWords = 32, kPoolHeaderWords = 8;
 
 uint64_t word(double v) {
@@ -125,6 +125,19 @@ Status write_checkpoint(const std::string& folder, const CheckpointMeta& meta, c
                                           {kf.pose_words(), kn * 7 * sizeof(double)},
                                           {kf.frames(), kn * sizeof(int32_t)}};
   EF_RETURN_IF_ERROR(w.section(kKeyframes, kparts, 4));
+
+  // The pose history (loop closure corrects it) straight from its ring.
+  const slam::PoseHistory& history = slam.pose_history();
+  const uint64_t hh[kPoseHeaderWords] = {static_cast<uint64_t>(history.first_frame()), static_cast<uint64_t>(history.size()),
+                                         static_cast<uint64_t>(history.overwritten()),
+                                         static_cast<uint64_t>(history.deformations())};
+  const double* runs[2] = {nullptr, nullptr};
+  int64_t run_records[2] = {0, 0};
+  const int run_count = history.runs(runs, run_records);
+  SnapshotWriter::Part hparts[3] = {{hh, sizeof hh}, {nullptr, 0}, {nullptr, 0}};
+  for (int i = 0; i < run_count; ++i)
+    hparts[1 + i] = {runs[i], static_cast<std::size_t>(run_records[i]) * slam::PoseHistory::kBytesPerFrame};
+  EF_RETURN_IF_ERROR(w.section(kPoses, hparts, 1 + static_cast<std::size_t>(run_count)));
 
   // The pool straight from its columns: no copy.
   const slam::SurfelPool& pool = slam.pool();
@@ -246,6 +259,26 @@ Status read_keyframes(const SnapshotReader& r, slam::KeyframeFerns& kf) {
   return Status::success();
 }
 
+// The POSE section into the pose history. A checkpoint without it (written before loop closure
+// corrected poses) leaves the history empty: the frames before it keep their tracked lines.
+Status read_pose_history(const SnapshotReader& r, slam::PoseHistory& history) {
+  if (!r.has(kPoses)) return Status::success();
+  uint64_t hh[kPoseHeaderWords];
+  EF_RETURN_IF_ERROR(r.read(kPoses, hh, sizeof hh));
+  const uint64_t count = hh[1];
+  const uint64_t bytes = r.size(kPoses) - sizeof hh;
+  if (r.size(kPoses) < sizeof hh || count > bytes / slam::PoseHistory::kBytesPerFrame ||
+      bytes != count * slam::PoseHistory::kBytesPerFrame)
+    return error(ErrorCode::kCorruptData, r.path() + ": section POSE has " + std::to_string(r.size(kPoses)) +
+                                              " bytes, not " + std::to_string(count) + " pose records");
+  std::vector<double> records(count * slam::PoseHistory::kWords);
+  EF_RETURN_IF_ERROR(r.read(kPoses, records.data(), records.size() * sizeof(double), sizeof hh));
+  Status s = history.restore(static_cast<int64_t>(hh[0]), static_cast<int64_t>(count), static_cast<int64_t>(hh[2]),
+                             static_cast<int64_t>(hh[3]), records.data());
+  if (!s.ok()) return error(ErrorCode::kCorruptData, r.path() + ": " + s.error().message);
+  return Status::success();
+}
+
 }  // namespace
 
 Result<slam::SurfelPool> load_checkpoint_pool(const FoundCheckpoint& found) {
@@ -288,6 +321,7 @@ Status restore_checkpoint(const FoundCheckpoint& found, slam::SurfelSlam& slam, 
     return error(ErrorCode::kCorruptData, r.path() + ": sections SLAM and META disagree");
   EF_RETURN_IF_ERROR(slam.restore(st));
   EF_RETURN_IF_ERROR(read_keyframes(r, slam.keyframes_for_restore()));
+  EF_RETURN_IF_ERROR(read_pose_history(r, slam.pose_history_for_restore()));
 
   // Counters by name: a name this run does not have is left out.
   std::string names(static_cast<std::size_t>(r.size(kCounterNames)), '\0');

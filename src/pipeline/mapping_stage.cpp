@@ -116,6 +116,24 @@ Status MappingStage::step(const PreparedFrame& slot) {
   return Status::success();
 }
 
+Status MappingStage::close_trajectory() {
+  EF_RETURN_IF_ERROR(trajectory_.close());
+  const slam::PoseHistory& history = slam_.pose_history();
+  if (history.deformations() == 0 || final_bytes_ >= 0) return Status::success();
+  // Lines of frames older than the history stay as tracked; the comment says how many.
+  const std::string key = "poses corrected by loop closure";
+  const std::string comment = key + " (" + std::to_string(history.deformations()) + " closures): every frame's from " +
+                              std::to_string(history.first_frame()) + " on; " + std::to_string(history.overwritten()) +
+                              " earlier ones as tracked (mapping.pose_history " + std::to_string(history.capacity()) + ")";
+  auto rewritten = rewrite_tum_poses(
+      trajectory_.path(), [&history](double t, SE3* T) { return history.at_time(t, T); }, comment, key.size());
+  if (!rewritten.ok()) return rewritten.take_error();
+  final_bytes_ = rewritten->bytes;
+  corrected_lines_ = rewritten->corrected;
+  kept_lines_ = rewritten->kept;
+  return Status::success();
+}
+
 Status MappingStage::drain_cnn() {
   if (semantics_ == nullptr || cnn_ == nullptr) return Status::success();
   return semantics_->drain(frames_ - 1, slam_, *cnn_);

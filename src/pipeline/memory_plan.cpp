@@ -127,6 +127,9 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
         std::to_string(graph.max_nodes) + " nodes (1 per " + std::to_string(graph.surfels_per_node) +
             " surfels), their banded Gauss-Newton system (" + std::to_string(12 * (2 * graph.neighbours + 1)) +
             " wide), " + std::to_string(graph.max_constraints) + " constraints, for loop closure");
+    add("pose history", slam::PoseHistory::bytes_for(slam.pose_history),
+        std::to_string(slam.pose_history) + " frames x " + std::to_string(slam::PoseHistory::kBytesPerFrame) +
+            " bytes: the poses loop closure corrects (trajectory.txt rewritten with them)");
   }
   add("surfel fusion scratch", slam::SurfelFusion::bytes_for(w, h, scale, capacity, slam.fusion),
       "marks per index cell, seen surfels, the lifetime sweep, per-pixel measurements");

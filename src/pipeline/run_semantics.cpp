@@ -212,6 +212,12 @@ Status RunSemantics::fuse_job(const CnnJob& job, int64_t now, const Frame* worki
 Status RunSemantics::on_frame(int64_t frame_number, const Frame& working, bool wait_for_this,
                               const slam::SlamFrameResult& result, slam::SurfelSlam& slam, CnnWorker& worker) {
   poses_[std::size_t(frame_number % kPoseHistory)] = PoseRecord{frame_number, result.T_world_cam, result.lost};
+  if (result.loop_accepted) {
+    // A loop closure moved the map: late results are fused at their frames' corrected poses (the
+    // SLAM's pose history numbers frames as this stage does: one SLAM frame per frame delivered).
+    for (PoseRecord& p : poses_)
+      if (p.frame >= 0) (void)slam.pose_history().at_frame(p.frame, &p.T_world_cam);
+  }
   CnnJob* own = nullptr;  // this frame's result, kept for its label image
   int64_t wait_for = wait_for_this ? frame_number : -1;
   Status status;

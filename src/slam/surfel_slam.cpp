@@ -32,6 +32,9 @@ const opt::Table<SurfelSlamOptions>& SurfelSlamOptions::table() {
       {"loop_closure", "", "", &SurfelSlamOptions::loop_closure, "", opt::any(),
        "register fused frames against the inactive model (local) and old keyframes (global) and deform the map "
        "to close the loop"},
+      {"pose_history", "", "", &SurfelSlamOptions::pose_history, "frames", opt::between(0, 1e7),
+       "the last frames whose poses a loop closure corrects (trajectory.txt is rewritten with them at the end; older "
+       "lines stay as tracked); allocated at start-up with loop_closure"},
       {"associate_active_only", "", "", &SurfelSlamOptions::associate_active_only, "", opt::any(),
        "fusion associates with the active model only (ElasticFusion): revisits after the time window make new "
        "surfels that loop closure deforms onto the old; false = with every surfel (the map absorbs small drift)"},
@@ -116,8 +119,9 @@ Result<SurfelSlam> SurfelSlam::create(const Intrinsics& working, const SurfelSla
     EF_ASSIGN_OR_RETURN(DeformationGraph g, DeformationGraph::create(options.graph.for_pool(options.pool.capacity)));
     graph.emplace(std::move(g));
   }
+  EF_ASSIGN_OR_RETURN(PoseHistory history, PoseHistory::create(options.loop_closure ? options.pose_history : 0));
   SurfelSlam slam(options, working, std::move(pre), std::move(tracker), std::move(predictor), std::move(fusion),
-                  std::move(pool), std::move(order), std::move(ferns), std::move(graph));
+                  std::move(pool), std::move(order), std::move(ferns), std::move(graph), std::move(history));
   slam.T_world_last_ = options.initial_pose;
   // An empty index map at the initial pose: the first frame finds no candidates and creates surfels.
   slam.predicted_frame_ = 0;
@@ -299,6 +303,7 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     prediction_stale_ = false;
     result->timings.predict_ms = ms_since(t0);
   }
+  history_.push(frame_index, frame.timestamp, result->T_world_cam);
   ++frames_;
   result->timings.total_ms = ms_since(t_start);
   return Status::success();
@@ -400,6 +405,7 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
   graph_->apply(pool_);
   *T_world_cur = graph_->apply_pose(*T_world_cur, frame_index);
   for (int32_t k = 0; k < ferns_.size(); ++k) ferns_.set_pose(k, graph_->apply_pose(ferns_.pose(k), ferns_.frame(k)));
+  history_.deform(*graph_);
   last_motion_ = SE3();
   result->loop_accepted = true;
   ++accepted;

@@ -36,6 +36,7 @@
 #include "io/ply_writer.h"
 #include "slam/deformation_graph.h"
 #include "slam/keyframe_ferns.h"
+#include "slam/pose_history.h"
 #include "slam/model_prediction.h"
 #include "slam/preprocess.h"
 #include "slam/spatial_order.h"
@@ -79,9 +80,10 @@ struct SurfelSlamOptions {
   // place with the inactive surfels seen there pinned, optimised, and applied to every surfel (labels,
   // colour and confidence ride along), the current pose and the keyframes. A closure whose
   // constraints stay further than loop_max_residual_m (RMS) from met would tear the map: rejected.
-  // Not yet: the poses of frames before a closure (trajectory.txt, the labels' late-fusion pose
-  // history) keep their values; the keyframes' poses are corrected.
+  // The poses of the last pose_history frames are corrected too (slam/pose_history.h): `run`
+  // rewrites trajectory.txt with them at the end, and the labels' late fusion uses them.
   bool loop_closure = true;
+  int32_t pose_history = 54000;       // frames (30 minutes at 30 Hz), 0..10,000,000; only with loop_closure
   int loop_check_every = 10;          // fused frames, 1..1000
   // Below both, the map already meets itself: registering against the part of the view the
   // inactive model covers is itself uncertain by about a centimetre. Measured (docs/results.md): at
@@ -226,6 +228,10 @@ class SurfelSlam {
   const ModelPredictor& predictor() const { return predictor_; }
   const KeyframeFerns& keyframes() const { return ferns_; }
   KeyframeFerns& keyframes_for_restore() { return ferns_; }
+  // Every frame's pose (the last options.pose_history frames), corrected by each loop closure;
+  // empty without loop closure.
+  const PoseHistory& pose_history() const { return history_; }
+  PoseHistory& pose_history_for_restore() { return history_; }
   int64_t relocalisations() const { return relocalisations_; }
   struct LoopCounters {
     int64_t local_accepted = 0, local_rejected = 0, global_accepted = 0, global_rejected = 0;
@@ -239,6 +245,7 @@ class SurfelSlam {
   std::size_t spatial_order_bytes() const { return order_.bytes(); }
   std::size_t keyframe_bytes() const { return ferns_.bytes(); }
   std::size_t deformation_bytes() const { return graph_ ? graph_->bytes() : 0; }
+  std::size_t pose_history_bytes() const { return history_.bytes(); }
 
  private:
   Status track_fuse_predict(const Frame& frame, const Preprocessor& pre, SlamFrameResult* result);
@@ -254,7 +261,7 @@ class SurfelSlam {
                            bool* ok, SE3* T_loop);
   SurfelSlam(SurfelSlamOptions options, const Intrinsics& working, std::optional<Preprocessor> pre, Tracker tracker,
              ModelPredictor predictor, SurfelFusion fusion, SurfelPool pool, SpatialOrder order, KeyframeFerns ferns,
-             std::optional<DeformationGraph> graph)
+             std::optional<DeformationGraph> graph, PoseHistory history)
       : options_(std::move(options)),
         working_(working),
         pre_(std::move(pre)),
@@ -265,7 +272,8 @@ class SurfelSlam {
         order_(std::move(order)),
         ferns_(std::move(ferns)),
         code_(ferns_.make_code()),
-        graph_(std::move(graph)) {}
+        graph_(std::move(graph)),
+        history_(std::move(history)) {}
 
   SurfelSlamOptions options_;
   Intrinsics working_;                // the working resolution's intrinsics
@@ -278,6 +286,7 @@ class SurfelSlam {
   KeyframeFerns ferns_;
   FernCode code_;            // the current frame's encoding (sized once)
   std::optional<DeformationGraph> graph_;  // only with options_.loop_closure
+  PoseHistory history_;      // capacity 0 without loop closure
   LoopCounters loops_;
   bool prediction_stale_ = false;  // relocalisation left the predictor at a keyframe's pose
   int64_t lost_run_ = 0;     // frames lost in a row

@@ -73,4 +73,17 @@ void KinectNoise::apply(uint64_t seed, ImageView<float> depth, ImageView<const f
   }
 }
 
+void apply_depth_bias(float bias, const Intrinsics& K, ImageView<float> depth) {
+  const float half_w = 0.5f * static_cast<float>(K.width), half_h = 0.5f * static_cast<float>(K.height);
+  const float inv_r2 = 1.0f / (half_w * half_w + half_h * half_h);
+  for (int y = 0; y < depth.height; ++y) {
+    float* row = depth.row(y);
+    const float dy = static_cast<float>(y) - K.cy;
+    for (int x = 0; x < depth.width; ++x) {
+      const float dx = static_cast<float>(x) - K.cx;
+      if (row[x] > 0.0f) row[x] *= 1.0f + bias * (dx * dx + dy * dy) * inv_r2;
+    }
+  }
+}
+
 }  // namespace ef::synth

@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "core/image.h"
+#include "core/intrinsics.h"
 
 namespace ef::synth {
 
@@ -49,5 +50,12 @@ class KinectNoise {
   DepthNoiseOptions o_;
   Image<uint8_t> edge_;
 };
+
+// A systematic depth error that grows towards the image's edges, as an uncalibrated depth camera's
+// (Kinect depth bends flat walls by up to a few per cent at the corners): z *= 1 + bias * r^2, r the
+// distance from the principal point over the half diagonal (1 at the corners). Frame-to-model
+// tracking on such depth drifts slowly (a wall seen from two places bends differently), which is
+// what loop closure is for: the synthetic source's depth_bias key. Invalid pixels (0) stay.
+void apply_depth_bias(float bias, const Intrinsics& K, ImageView<float> depth);
 
 }  // namespace ef::synth

@@ -44,7 +44,7 @@ const std::vector<std::string>& synthetic_room_names() { return synth::builtin_r
 namespace synth {
 
 Result<SyntheticOptions> parse_synthetic_options(const SourceUri& uri) {
-  EF_RETURN_IF_ERROR(check_query_keys(uri, {"seed", "trajectory", "frames", "size", "noise", "camera", "layout"}));
+  EF_RETURN_IF_ERROR(check_query_keys(uri, {"seed", "trajectory", "frames", "size", "noise", "camera", "layout", "depth_bias"}));
   SyntheticOptions o;
   o.room = uri.path;
   if (!o.room.empty() && o.room != "random") {
@@ -85,6 +85,12 @@ Result<SyntheticOptions> parse_synthetic_options(const SourceUri& uri) {
       if (value == "ideal") o.camera = CameraKind::kIdeal;
       else if (value == "kinect") o.camera = CameraKind::kKinect;
       else return bad_value(key, value, "ideal or kinect");
+    } else if (key == "depth_bias") {
+      char* end = nullptr;
+      const double b = std::strtod(value.c_str(), &end);
+      if (value.empty() || end != value.c_str() + value.size() || !(b >= -0.2 && b <= 0.2))
+        return bad_value(key, value, "a fraction -0.2..0.2, e.g. 0.02");
+      o.depth_bias = static_cast<float>(b);
     } else if (key == "layout") {
       if (value == "walls") o.layout = RoomLayout::kWalls;
       else if (value == "island") o.layout = RoomLayout::kIsland;
@@ -160,6 +166,7 @@ Status SyntheticSource::render(int64_t index, Frame& out) {
   if (m.options.noise) {
     m.noise->apply(frame_seed, out.depth.view(), m.renderer->incidence(), out.color.view());
   }
+  if (m.options.depth_bias != 0.0f) apply_depth_bias(m.options.depth_bias, K, out.depth.view());
   out.timestamp = static_cast<double>(index) / kFps;
   out.index = index;
   out.T_wc = m.poses[index];

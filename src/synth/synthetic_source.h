@@ -1,5 +1,5 @@
 // The built-in synthetic frame source:
-// "synthetic:<room>?seed=&trajectory=&frames=&size=&noise=&camera=&layout=".
+// "synthetic:<room>?seed=&trajectory=&frames=&size=&noise=&camera=&layout=&depth_bias=".
 //
 //   room        "" (the default, living_room), a built-in room (synthetic_room_names()), or
 //               "random" (a room drawn from `seed`)
@@ -16,6 +16,8 @@
 //   layout      walls (default: furniture along the walls, the middle free) | island (also one
 //               group of furniture in the middle, which the hand-held loop circles and which hides
 //               a different part of the room in every view; room_builder.h)
+//   depth_bias  a fraction -0.2..0.2, default 0: depth bent by 1 + depth_bias x r^2 towards the
+//               corners (synth/depth_noise.h apply_depth_bias), a slow drift for loop closure to remove
 // Frames carry the exact pose T_wc and the per-pixel class labels. Same URI => same images,
 // bit for bit.
 #pragma once
@@ -63,6 +65,7 @@ struct SyntheticOptions {
   CameraKind camera = CameraKind::kIdeal;
   CameraModelOptions camera_options;  // used with CameraKind::kKinect
   RoomLayout layout = RoomLayout::kWalls;
+  float depth_bias = 0.0f;        // fraction, -0.2..0.2: a radial depth error (apply_depth_bias)
 };
 
 // Parses the URI's path and query into options; errors name the offending key or value.

@@ -74,5 +74,58 @@ TEST(OutputsTrajectory, OpenFailsNamingPath) {
   EXPECT_FALSE(w.is_open());
 }
 
+
+// A loop closure's rewrite (pipeline/mapping_stage.h): the pose lines it has corrections for are
+// written again, everything else stays byte for byte, a second rewrite replaces the first's comment.
+TEST(OutputsTrajectory, RewriteReplacesCorrectedPosesAndKeepsEverythingElse) {
+  const std::string path = (test::scratch_dir("traj_rewrite") / "t.txt").string();
+  TumTrajectoryWriter w;
+  ASSERT_TRUE(w.open(path).ok());
+  for (int i = 0; i < 6; ++i) {
+    if (i == 2) ASSERT_TRUE(w.write_comment("lost 0.066667 diverged").ok());
+    ASSERT_TRUE(w.write(i / 30.0, SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.1 * i, 0, 1))).ok());
+  }
+  ASSERT_TRUE(w.close().ok());
+  // Frames 3.. moved by 5 cm along y; frames 0-2 unknown to the corrector.
+  auto correct = [](double t, SE3* T) {
+    if (t < 0.09) return false;
+    *T = SE3(T->rotation(), T->translation() + Eigen::Vector3d(0, 0.05, 0));
+    return true;
+  };
+  auto r = rewrite_tum_poses(path, correct, "poses corrected: first", 15);
+  ASSERT_TRUE(r.ok()) << to_string(r.error());
+  EXPECT_EQ(r->corrected, 3);
+  EXPECT_EQ(r->kept, 3);
+  auto read = read_tum_trajectory(path);
+  ASSERT_TRUE(read.ok()) << to_string(read.error());
+  ASSERT_EQ(read->poses.size(), 6u);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NEAR(read->poses[i].T_wc.translation().y(), i >= 3 ? 0.05 : 0.0, 1e-9) << i;
+    EXPECT_NEAR(read->poses[i].T_wc.translation().x(), 0.1 * i, 1e-9) << i;
+    EXPECT_EQ(read->poses[i].lost, i == 2) << i;  // the "# lost" mark still marks its line
+  }
+  std::ifstream in(path);
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_EQ(static_cast<int64_t>(text.size()), r->bytes);
+  EXPECT_EQ(text.rfind("# timestamp tx ty tz qx qy qz qw\n# poses corrected: first\n", 0), 0u) << text;
+  EXPECT_NE(text.find("0.033333 0.1 0 1 0 0 0 1\n"), std::string::npos) << "an uncorrected line changed:\n" << text;
+  // Again: the earlier comment (same first 15 bytes) is replaced, not repeated.
+  auto again = rewrite_tum_poses(path, [](double, SE3*) { return false; }, "poses corrected: second", 15);
+  ASSERT_TRUE(again.ok());
+  std::ifstream in2(path);
+  text.assign((std::istreambuf_iterator<char>(in2)), {});
+  EXPECT_EQ(text.find("first"), std::string::npos) << text;
+  EXPECT_NE(text.find("# poses corrected: second\n"), std::string::npos) << text;
+  // A file that is not a trajectory is left alone, the error naming the line.
+  {
+    std::ofstream bad(path, std::ios::app);
+    bad << "1.0 2.0 three\n";
+  }
+  auto failed = rewrite_tum_poses(path, correct, "x", 1);
+  ASSERT_FALSE(failed.ok());
+  EXPECT_NE(failed.error().message.find(path + ":10:"), std::string::npos) << failed.error().message;
+  EXPECT_FALSE(rewrite_tum_poses(path + ".missing", correct).ok());
+}
+
 }  // namespace
 }  // namespace ef

@@ -39,6 +39,7 @@ TEST(Checkpoint, ARestoredSlamIsTheSavedOneAndGoesOnTheSame) {
   const Intrinsics k = (*source)->info().intrinsics;
   slam::SurfelSlamOptions options;
   options.pool.capacity = 200000;
+  options.pose_history = 16;  // wraps during the checkpoints below
   auto a = slam::SurfelSlam::create(k, options);
   ASSERT_TRUE(a.ok());
   Frame f;
@@ -102,6 +103,18 @@ TEST(Checkpoint, ARestoredSlamIsTheSavedOneAndGoesOnTheSame) {
       EXPECT_EQ(std::memcmp(ka.code(kf), kb.code(kf), static_cast<std::size_t>(ka.ferns())), 0) << kf;
       EXPECT_TRUE(same_pose(ka.pose(kf), kb.pose(kf))) << kf;
       EXPECT_EQ(ka.frame(kf), kb.frame(kf));
+    }
+    // The pose history loop closure corrects, pose for pose.
+    const slam::PoseHistory &ha = a->pose_history(), &hb = b->pose_history();
+    ASSERT_EQ(ha.size(), std::min<int64_t>(i + 1, 16));
+    EXPECT_EQ(ha.size(), hb.size());
+    EXPECT_EQ(ha.first_frame(), hb.first_frame());
+    EXPECT_EQ(ha.overwritten(), hb.overwritten());
+    EXPECT_EQ(ha.deformations(), hb.deformations());
+    for (int64_t h = ha.first_frame(); h <= i; ++h) {
+      SE3 pa, pb;
+      ASSERT_TRUE(ha.at_frame(h, &pa) && hb.at_frame(h, &pb)) << h;
+      EXPECT_TRUE(same_pose(pa, pb)) << h;
     }
   }
 

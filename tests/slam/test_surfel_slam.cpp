@@ -534,6 +534,25 @@ TEST(SurfelSlam, LoopChecksRegisterAgainstTheInactiveModelAndCloseOnlyWhatIsOpen
       }
       worst[run] = std::max(worst[run], ((start.inverse() * truth).translation() - r.T_world_cam.translation()).norm());
     }
+    // Every frame's pose is held (pose history): without closures as reported; with them, each
+    // corrected by the closures after it. These closures are forced at noise level (no drift to
+    // remove), so they move the map's frame by a few millimetres: the corrected poses stay within
+    // 1 cm more of the truth than the tracked ones (measured: 8 mm at worst, against 2.7).
+    const PoseHistory& history = slam->pose_history();
+    ASSERT_EQ(history.size(), 2 * kOut + 1);
+    EXPECT_EQ(history.deformations(), closed[run]);
+    SE3 last;
+    ASSERT_TRUE(history.at_frame(2 * kOut, &last));
+    EXPECT_EQ(last.translation(), r.T_world_cam.translation());
+    for (int i = 0; i <= 2 * kOut; ++i) {
+      const int step = i <= kOut ? i : 2 * kOut - i;
+      Vector6d pan;
+      pan << 0, 0, 0, 0, step * M_PI / 180.0, 0;
+      SE3 held;
+      ASSERT_TRUE(history.at_frame(i, &held));
+      EXPECT_LT((SE3::exp(pan).translation() - held.translation()).norm(), worst[run] + (run == 0 ? 1e-12 : 0.01))
+          << "run " << run << " frame " << i;
+    }
   }
   std::printf("loop checks: registered %d / %d, closed %d / %d; worst position error %.4f / %.4f m\n", registered[0],
               registered[1], closed[0], closed[1], worst[0], worst[1]);

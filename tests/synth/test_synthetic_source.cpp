@@ -43,7 +43,34 @@ TEST(SyntheticSource, QueryErrorsNameTheirKeyOrValue) {
   EXPECT_NE(open_error("synthetic:?noise=2").find("noise"), std::string::npos);
   EXPECT_NE(open_error("synthetic:?trajectory=fly").find("fly"), std::string::npos);
   EXPECT_NE(open_error("synthetic:garage").find("garage"), std::string::npos);
+  EXPECT_NE(open_error("synthetic:?depth_bias=0.5").find("depth_bias"), std::string::npos);
+  EXPECT_NE(open_error("synthetic:?depth_bias=x").find("depth_bias"), std::string::npos);
   EXPECT_EQ(open_error("synthetic:office?seed=4&trajectory=robot&frames=5&size=320x240&noise=0"), "");
+}
+
+// depth_bias bends depth towards the corners (1 + bias r^2), the centre as it was: the drift that
+// loop closure is measured removing (docs/results.md).
+TEST(SyntheticSource, DepthBiasGrowsTowardsTheCorners) {
+  auto plain = test::open_synth("synthetic:office?frames=2&size=160x120&noise=0");
+  auto bent = test::open_synth("synthetic:office?frames=2&size=160x120&noise=0&depth_bias=0.05");
+  ASSERT_TRUE(plain && bent);
+  Frame a, b;
+  ASSERT_TRUE(plain->next(a).ok() && bent->next(b).ok());
+  const Intrinsics& K = plain->info().intrinsics;
+  int checked = 0;
+  for (int y = 0; y < K.height; y += 7)
+    for (int x = 0; x < K.width; x += 7) {
+      const float z = a.depth.view()(x, y);
+      if (z <= 0) {
+        EXPECT_EQ(b.depth.view()(x, y), 0.0f);
+        continue;
+      }
+      const float dx = x - K.cx, dy = y - K.cy;
+      const float r2 = (dx * dx + dy * dy) / (0.25f * (K.width * K.width + K.height * K.height));
+      EXPECT_NEAR(b.depth.view()(x, y), z * (1.0f + 0.05f * r2), 1e-5f * z) << x << "," << y;
+      ++checked;
+    }
+  EXPECT_GT(checked, 300);
 }
 
 TEST(SyntheticSource, FrameMetadataAndSize) {
