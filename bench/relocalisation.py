@@ -17,10 +17,14 @@ Real data: the 7-Scenes redkitchen frames (1000, geometry only: --no-labels), at
   small pools     --surfel-capacity 100000 and 20000: lost frames, ATE, evicted and refused surfels
   loop closure    the uninterrupted run has it on (the default); the same with mapping.loop_closure
                   false, and with ElasticFusion's association (mapping.associate_active_only true, so
-                  that revisits leave an inactive model to close against): closures, ATE, surfels
+                  that revisits leave an inactive model to close against): closures, ATE, surfels;
+                  with that association also with mapping.pose_history 0, trajectory.txt as tracked
+                  (what the closures' pose correction changes)
 Synthetic (regression and the issue's failing case): synthetic:random?seed=7&trajectory=inspect&
 camera=kinect with relocalisation on and off; the 2000-frame living-room loop (several laps, 320x240)
-at the defaults and with ElasticFusion's association.
+at the defaults and with ElasticFusion's association; the same loop with injected drift
+(depth_bias=0.01: depth bent by 1% towards the corners) at the defaults, with loop closure off, and
+with ElasticFusion's association with closure on (poses corrected, and as tracked) and off.
 Cost: the stages `keyframe` (encoding and the novelty test, every tracked frame), `relocalise` (lost
 frames and the one that resumes) and `loop_check` (every 10th fused frame; closures included) of
 stats.json: median and p95 ms, and the loop check's mean per frame.
@@ -101,6 +105,14 @@ def main():
     ef_assoc = os.path.join(work, "active-only.yaml")
     with open(ef_assoc, "w") as f:
         f.write("mapping:\n  associate_active_only: true\n")
+    # The same, trajectory.txt as tracked (no pose history to correct): what the closures' pose
+    # correction changes.
+    ef_tracked = os.path.join(work, "active-only-tracked.yaml")
+    with open(ef_tracked, "w") as f:
+        f.write("mapping:\n  associate_active_only: true\n  pose_history: 0\n")
+    ef_off = os.path.join(work, "active-only-off.yaml")
+    with open(ef_off, "w") as f:
+        f.write("mapping:\n  associate_active_only: true\n  loop_closure: false\n")
 
     def mapped(name, uri, *extra):
         out = os.path.join(work, name)
@@ -137,7 +149,10 @@ def main():
     full = mapped("uninterrupted", kitchen)
     rows.append(("uninterrupted", "real", full, ""))
     rows.append(("loop closure off", "real", mapped("loop-off", kitchen, "--config", lc_off), ""))
-    rows.append(("ElasticFusion's association", "real", mapped("active-only", kitchen, "--config", ef_assoc), ""))
+    rows.append(("ElasticFusion's association", "real", mapped("active-only", kitchen, "--config", ef_assoc),
+                 "trajectory.txt with the poses the closures corrected"))
+    rows.append(("ElasticFusion's association, poses as tracked", "real",
+                 mapped("active-only-tracked", kitchen, "--config", ef_tracked), "mapping.pose_history 0"))
 
     gap_t = 550 / 30.0  # 7-Scenes stamps are index / 30 s
     def after_gap(r, name):
@@ -178,6 +193,18 @@ def main():
     rows.append(("2000-frame loop", "synthetic", mapped("lap", lap), ""))
     rows.append(("2000-frame loop, ElasticFusion's association", "synthetic",
                  mapped("lap-active-only", lap, "--config", ef_assoc), ""))
+
+    # Injected drift: depth bent by 1% towards the corners (synthetic depth_bias), two laps.
+    drift = "synthetic:?frames=2000&size=320x240&depth_bias=0.01"
+    for name, extra, note in (
+            ("drifting loop", (), "default association: revisits fuse into the old surface"),
+            ("drifting loop, loop closure off", ("--config", lc_off), ""),
+            ("drifting loop, ElasticFusion's association", ("--config", ef_assoc), "poses corrected by the closures"),
+            ("drifting loop, ElasticFusion's association, poses as tracked", ("--config", ef_tracked),
+             "mapping.pose_history 0"),
+            ("drifting loop, ElasticFusion's association, loop closure off", ("--config", ef_off), "")):
+        rows.append((name, "synthetic", mapped("drift-" + name.replace(",", "").replace("'", "").replace(" ", "-"),
+                                                drift, *extra), note))
 
     print("| run | data | frames lost | relocalisations | keyframes | loop closures accepted / rejected | surfels | ATE cm | notes |")
     print("|---|---|---|---|---|---|---|---|---|")

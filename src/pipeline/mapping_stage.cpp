@@ -73,9 +73,9 @@ Status MappingStage::step(const PreparedFrame& slot) {
                     frame.timestamp, static_cast<long long>(result_.lost_before));
     EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
   }
-  if (result_.loop_kind != 0) {
+  if (result_.loop_kind != slam::LoopKind::kNone) {
     std::snprintf(line_, sizeof line_, "loop closure %.6f %s %s: camera moved %.4f m, constraints %.4f -> %.4f m RMS",
-                  frame.timestamp, result_.loop_kind == 1 ? "local" : "global",
+                  frame.timestamp, slam::loop_kind_name(result_.loop_kind),
                   result_.loop_accepted ? "accepted" : "rejected", result_.loop_correction_m,
                   result_.deformation.rms_before_m, result_.deformation.rms_after_m);
     EF_RETURN_IF_ERROR(trajectory_.write_comment(line_));
@@ -105,8 +105,8 @@ Status MappingStage::step(const PreparedFrame& slot) {
   stats_.increment(c_.relocalisations, result_.relocalised ? 1 : 0);
   stats_.increment(c_.lost_before_relocalisation, result_.relocalised ? static_cast<uint64_t>(result_.lost_before) : 0);
   stats_.increment(c_.keyframes, result_.new_keyframe ? 1 : 0);
-  if (result_.loop_kind != 0) {
-    const bool local = result_.loop_kind == 1;
+  if (result_.loop_kind != slam::LoopKind::kNone) {
+    const bool local = result_.loop_kind == slam::LoopKind::kLocal;
     stats_.increment(result_.loop_accepted ? (local ? c_.loop_local_accepted : c_.loop_global_accepted)
                                            : (local ? c_.loop_local_rejected : c_.loop_global_rejected));
   }

@@ -184,6 +184,12 @@ struct RowAccumulator {
 
 }  // namespace
 
+Eigen::Vector3d DeformationGraph::phi(const Eigen::Vector3d& v, const int32_t* ids, const double* w, int n) const {
+  Eigen::Vector3d out = Eigen::Vector3d::Zero();
+  for (int i = 0; i < n; ++i) out += w[i] * (A_[ids[i]] * (v - g_[ids[i]]) + g_[ids[i]] + t_[ids[i]]);
+  return out;
+}
+
 double DeformationGraph::energy_and_system(bool build_system) {
   const int n_unknowns = node_count_ * kUnknownsPerNode;
   const int b = half_band_;
@@ -250,9 +256,7 @@ double DeformationGraph::energy_and_system(bool build_system) {
   const double w_con = options_.weight_constraint;
   for (int32_t ci = 0; ci < constraint_count_; ++ci) {
     const Constraint& c = constraints_[ci];
-    Eigen::Vector3d phi = Eigen::Vector3d::Zero();
-    for (int i = 0; i < c.n; ++i) phi += c.w[i] * (A_[c.ids[i]] * (c.v - g_[c.ids[i]]) + g_[c.ids[i]] + t_[c.ids[i]]);
-    const Eigen::Vector3d e = phi - c.q;
+    const Eigen::Vector3d e = phi(c.v, c.ids, c.w, c.n) - c.q;
     energy += w_con * e.squaredNorm();
     if (!build_system) continue;
     for (int a = 0; a < 3; ++a) {
@@ -314,9 +318,7 @@ Status DeformationGraph::optimise(DeformationResult* result) {
     double sum = 0, mx = 0;
     for (int32_t ci = 0; ci < constraint_count_; ++ci) {
       const Constraint& c = constraints_[ci];
-      Eigen::Vector3d phi = Eigen::Vector3d::Zero();
-      for (int i = 0; i < c.n; ++i) phi += c.w[i] * (A_[c.ids[i]] * (c.v - g_[c.ids[i]]) + g_[c.ids[i]] + t_[c.ids[i]]);
-      const double e = (phi - c.q).norm();
+      const double e = (phi(c.v, c.ids, c.w, c.n) - c.q).norm();
       sum += e * e;
       mx = std::max(mx, e);
     }
@@ -360,9 +362,7 @@ Eigen::Vector3f DeformationGraph::apply_point(const Eigen::Vector3f& vf, int32_t
   const Eigen::Vector3d v = vf.cast<double>();
   const int m = influences(v, tau, ids, w);
   if (m == 0) return vf;
-  Eigen::Vector3d out = Eigen::Vector3d::Zero();
-  for (int i = 0; i < m; ++i) out += w[i] * (A_[ids[i]] * (v - g_[ids[i]]) + g_[ids[i]] + t_[ids[i]]);
-  return out.cast<float>();
+  return phi(v, ids, w, m).cast<float>();
 }
 
 SE3 DeformationGraph::apply_pose(const SE3& T, int32_t tau) const {
@@ -371,12 +371,9 @@ SE3 DeformationGraph::apply_pose(const SE3& T, int32_t tau) const {
   const Eigen::Vector3d c = T.translation();
   const int m = influences(c, tau, ids, w);
   if (m == 0) return T;
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d centre = phi(c, ids, w, m);
   Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-  for (int i = 0; i < m; ++i) {
-    centre += w[i] * (A_[ids[i]] * (c - g_[ids[i]]) + g_[ids[i]] + t_[ids[i]]);
-    M += w[i] * A_[ids[i]];
-  }
+  for (int i = 0; i < m; ++i) M += w[i] * A_[ids[i]];
   // The rotation nearest to the blended transform (its polar factor).
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d R = svd.matrixU() * svd.matrixV().transpose();
@@ -397,13 +394,10 @@ void DeformationGraph::apply(SurfelPool& pool) const {
     const Eigen::Vector3d v(x[i], y[i], z[i]);
     const int m = influences(v, init[i], ids, w);
     if (m == 0) return;  // not built: nothing moves
-    Eigen::Vector3d p = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+    const Eigen::Vector3d p = phi(v, ids, w, m);
     const Eigen::Vector3d n0(nx[i], ny[i], nz[i]);
-    for (int a = 0; a < m; ++a) {
-      const int32_t j = ids[a];
-      p += w[a] * (A_[j] * (v - g_[j]) + g_[j] + t_[j]);
-      n += w[a] * (normal_A_[j] * n0);
-    }
+    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    for (int a = 0; a < m; ++a) n += w[a] * (normal_A_[ids[a]] * n0);
     const double len = n.norm();
     if (len > 0) n /= len;
     x[i] = static_cast<float>(p.x());

@@ -122,6 +122,9 @@ class DeformationGraph {
   DeformationGraph() = default;
   // The nodes that move a point at time tau and their weights; returns how many (<= neighbours).
   int influences(const Eigen::Vector3d& v, int32_t tau, int32_t* ids, double* weights) const;
+  // phi(v) of the file comment over the given nodes and weights: the one formula every term and
+  // every apply function uses.
+  Eigen::Vector3d phi(const Eigen::Vector3d& v, const int32_t* ids, const double* weights, int n) const;
   double energy_and_system(bool build_system);
   void finish_nodes();
 

@@ -284,7 +284,7 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     }
     // A new view becomes a keyframe (ferns of the raw frame; a relocalised frame too).
     t0 = Clock::now();
-    ferns_.encode(frame.depth.view(), frame.color.view(), &code_);
+    if (result->keyframe < 0) ferns_.encode(frame.depth.view(), frame.color.view(), &code_);  // else relocalise()'s
     result->new_keyframe = ferns_.add_if_novel(code_, T_world_cur, frame_index) >= 0;
     result->timings.keyframe_ms = ms_since(t0);
 
@@ -316,8 +316,7 @@ Status SurfelSlam::register_inactive(const Preprocessor& pre, const SE3& T_ref, 
   prediction_stale_ = true;
   // Too little of the inactive model in view for the tracker's inlier tests: no registration to try.
   const double pixels = static_cast<double>(working_.width) * working_.height;
-  if (static_cast<double>(predictor_.counters().valid_pixels) <
-      std::max(static_cast<double>(options_.tracker.lost_min_inliers), options_.tracker.lost_min_inlier_fraction * pixels))
+  if (static_cast<double>(predictor_.counters().valid_pixels) < options_.tracker.min_inliers_among(pixels))
     return Status::success();
   TrackResult trial;
   EF_RETURN_IF_ERROR(tracker_.track(predictor_.pyramid_view(), pyramid_view(pre), T_ref.inverse() * T_world_cur, &trial));
@@ -344,14 +343,14 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
   bool ok = false;
   SE3 T_loop;
   EF_RETURN_IF_ERROR(register_inactive(pre, *T_world_cur, *T_world_cur, seen_before, &ok, &T_loop));
-  int kind = ok ? 1 : 0;
+  LoopKind kind = ok ? LoopKind::kLocal : LoopKind::kNone;
   if (!ok) {
     // Global: the keyframe most like this frame (code_: encoded for the keyframe test just before)
     // among those taken before the active window.
     KeyframeMatch match;
     if (ferns_.best_matches(code_, options_.ferns.match_threshold, &match, 1, seen_before) == 1) {
       EF_RETURN_IF_ERROR(register_inactive(pre, ferns_.pose(match.keyframe), *T_world_cur, seen_before, &ok, &T_loop));
-      kind = ok ? 2 : 0;
+      kind = ok ? LoopKind::kGlobal : LoopKind::kNone;
     }
   }
   if (!ok) return Status::success();
@@ -363,8 +362,8 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
     return Status::success();  // the map already meets itself here
   result->loop_kind = kind;
   result->loop_correction_m = moved_m;
-  int64_t& accepted = kind == 1 ? loops_.local_accepted : loops_.global_accepted;
-  int64_t& rejected = kind == 1 ? loops_.local_rejected : loops_.global_rejected;
+  int64_t& accepted = kind == LoopKind::kLocal ? loops_.local_accepted : loops_.global_accepted;
+  int64_t& rejected = kind == LoopKind::kLocal ? loops_.local_rejected : loops_.global_rejected;
   if (moved_m > options_.tracker.lost_max_correction_m || turned_deg > options_.tracker.lost_max_correction_deg) {
     ++rejected;
     return Status::success();
@@ -410,6 +409,15 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
   result->loop_accepted = true;
   ++accepted;
   return Status::success();
+}
+
+const char* loop_kind_name(LoopKind kind) {
+  switch (kind) {
+    case LoopKind::kLocal: return "local";
+    case LoopKind::kGlobal: return "global";
+    case LoopKind::kNone: break;
+  }
+  return "none";
 }
 
 bool SurfelSlam::inliers_dropped(const TrackResult& t) const {

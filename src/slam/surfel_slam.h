@@ -153,6 +153,11 @@ struct SlamTimings {
          relocalise_ms = 0, keyframe_ms = 0, loop_ms = 0, total_ms = 0;
 };
 
+// Where a loop closure registered the frame: against the inactive model at the frame's own pose
+// (local) or at an old keyframe's (global).
+enum class LoopKind { kNone, kLocal, kGlobal };
+const char* loop_kind_name(LoopKind kind);  // "none", "local", "global"
+
 struct SlamFrameResult {
   SE3 T_world_cam;       // the frame's pose (the last good pose when lost)
   bool lost = false;     // tracking failed: not fused (track.reason says why)
@@ -164,10 +169,10 @@ struct SlamFrameResult {
   TrackLostReason tracking_lost = TrackLostReason::kNone;  // a frame found at a keyframe: why tracking
                                                            // from the last good pose failed on it
   bool new_keyframe = false;  // this frame became a keyframe
-  // Loop closure on this frame: 0 none, 1 local, 2 global; accepted or rejected (see
+  // Loop closure on this frame: none, local or global; accepted or rejected (see
   // SurfelSlamOptions::loop_closure); the deformation's figures when one was optimised.
   bool loop_registered = false;  // the check registered the frame against the inactive model
-  int loop_kind = 0;
+  LoopKind loop_kind = LoopKind::kNone;
   bool loop_accepted = false;
   double loop_correction_m = 0;  // how far the registration moved the camera, metres
   DeformationResult deformation;

@@ -68,6 +68,7 @@
 // pixels = 125 KiB at 320x240) and the SO(3) level (~34 KB at 40x30). Threads: one Tracker per thread.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -204,6 +205,11 @@ struct TrackerOptions {
   // most pixels), hence 0.1; a frame of another room gave 0.02.
   double lost_min_inlier_fraction = 0.1;
   int64_t lost_min_inliers = 1000;
+  // The fewest inliers the two tests above allow among `pixels` valid ones: what a model that
+  // covers fewer pixels can never pass (SurfelSlam's loop check skips registering against it).
+  double min_inliers_among(double pixels) const {
+    return std::max(static_cast<double>(lost_min_inliers), lost_min_inlier_fraction * pixels);
+  }
   // RMS of the ICP inlier residuals, metres. (RGB only: RMS of the RGB residuals, grey levels.)
   double lost_max_icp_rms_m = 0.02;
   double lost_max_rgb_rms_grey = 40.0;
