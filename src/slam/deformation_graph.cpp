@@ -75,15 +75,15 @@ Status DeformationGraph::build(const SurfelPool& pool) {
   // spread over the map.
   auto sample = [&](int32_t j) { return static_cast<int64_t>(j) * size / count; };
   for (int32_t j = 0; j < count; ++j) order_[j] = j;
-  const int32_t* init = pool.init_time();
+  const int32_t* time = pool.last_seen();
   std::sort(order_.get(), order_.get() + count, [&](int32_t a, int32_t b) {
-    const int32_t ta = init[sample(a)], tb = init[sample(b)];
+    const int32_t ta = time[sample(a)], tb = time[sample(b)];
     return ta != tb ? ta < tb : a < b;
   });
   for (int32_t j = 0; j < count; ++j) {
     const int64_t id = sample(order_[j]);
     g_[j] = Eigen::Vector3d(pool.x()[id], pool.y()[id], pool.z()[id]);
-    time_[j] = init[id];
+    time_[j] = time[id];
   }
   node_count_ = count;
   finish_nodes();
@@ -389,10 +389,10 @@ void DeformationGraph::apply(SurfelPool& pool) const {
   int32_t ids[kMaxNeighbours];
   double w[kMaxNeighbours];
   float *x = pool.x(), *y = pool.y(), *z = pool.z(), *nx = pool.nx(), *ny = pool.ny(), *nz = pool.nz();
-  const int32_t* init = pool.init_time();
+  const int32_t* time = pool.last_seen();
   for (int64_t i = 0; i < pool.size(); ++i) {
     const Eigen::Vector3d v(x[i], y[i], z[i]);
-    const int m = influences(v, init[i], ids, w);
+    const int m = influences(v, time[i], ids, w);
     if (m == 0) return;  // not built: nothing moves
     const Eigen::Vector3d p = phi(v, ids, w, m);
     const Eigen::Vector3d n0(nx[i], ny[i], nz[i]);

@@ -2,8 +2,8 @@
 // from the configuration (default 1,000,000 surfels) and never resized.
 //
 // A surfel (ElasticFusion, Whelan et al. RSS 2015, section 3) is a disc: position, normal, radius,
-// colour, a confidence (the accumulated fusion weight), the frame it was created at (init_time, also
-// what ElasticFusion's deformation graph samples by) and the frame it was last fused at (last_seen).
+// colour, a confidence (the accumulated fusion weight), the frame it was created at (init_time) and
+// the frame it was last fused at (last_seen, also the time loop closure's deformation graph moves it by).
 // Surfels with confidence >= the stable threshold (fusion options) are "stable" and used for tracking.
 //
 // Columns (one contiguous array each, 64-byte aligned, index = surfel id 0..size()-1):

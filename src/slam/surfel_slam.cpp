@@ -392,7 +392,7 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
         const int32_t id = ids(x, y);
         if (id >= 0 && id < pool_.size()) {
           const Eigen::Vector3f v(pool_.x()[id], pool_.y()[id], pool_.z()[id]);
-          graph_->add_constraint(v, pool_.init_time()[id], v);
+          graph_->add_constraint(v, pool_.last_seen()[id], v);
         }
       }
     }
