@@ -96,23 +96,20 @@ def main():
     work = a.work or tempfile.mkdtemp(prefix="relocalisation-")
     os.makedirs(work, exist_ok=True)
     E = a.edgefusion
-    off = os.path.join(work, "off.yaml")
-    with open(off, "w") as f:
-        f.write("mapping:\n  relocalisation: false\n  lost_inlier_drop: 0\n")
-    lc_off = os.path.join(work, "loop-off.yaml")
-    with open(lc_off, "w") as f:
-        f.write("mapping:\n  loop_closure: false\n")
-    ef_assoc = os.path.join(work, "active-only.yaml")
-    with open(ef_assoc, "w") as f:
-        f.write("mapping:\n  associate_active_only: true\n")
+    def config(name, mapping):
+        """A --config file of mapping keys in the work folder; returns its path."""
+        path = os.path.join(work, name + ".yaml")
+        with open(path, "w") as f:
+            f.write("mapping:\n" + "".join(f"  {k}: {v}\n" for k, v in mapping.items()))
+        return path
+
+    off = config("off", {"relocalisation": "false", "lost_inlier_drop": 0})
+    lc_off = config("loop-off", {"loop_closure": "false"})
+    ef_assoc = config("active-only", {"associate_active_only": "true"})
     # The same, trajectory.txt as tracked (no pose history to correct): what the closures' pose
     # correction changes.
-    ef_tracked = os.path.join(work, "active-only-tracked.yaml")
-    with open(ef_tracked, "w") as f:
-        f.write("mapping:\n  associate_active_only: true\n  pose_history: 0\n")
-    ef_off = os.path.join(work, "active-only-off.yaml")
-    with open(ef_off, "w") as f:
-        f.write("mapping:\n  associate_active_only: true\n  loop_closure: false\n")
+    ef_tracked = config("active-only-tracked", {"associate_active_only": "true", "pose_history": 0})
+    ef_off = config("active-only-off", {"associate_active_only": "true", "loop_closure": "false"})
 
     def mapped(name, uri, *extra):
         out = os.path.join(work, name)

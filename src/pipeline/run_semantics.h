@@ -103,6 +103,7 @@ class RunSemantics {
   static std::size_t late_fusion_bytes_for(int working_width, int working_height,
                                            const slam::PredictionOptions& prediction);
   // Poses of the last frames kept for late results; a result older than this is not fused (counted).
+  // A loop closure replaces them by the SLAM's corrected ones (slam/pose_history.h).
   static constexpr int kPoseHistory = 256;
   // The label fusion create() makes: options.fusion for a working image of working_width x
   // working_height and a CNN output of cnn_width x cnn_height (also what the memory plan sizes).
