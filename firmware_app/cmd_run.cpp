@@ -268,7 +268,12 @@ int cmd_run(int argc, char** argv) {
               outcome.seconds > 0 ? static_cast<double>(outcome.frames) / outcome.seconds : 0.0,
               static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.relocalisations()),
               static_cast<long long>(slam.pool().size()), static_cast<int>(slam.keyframes().size()));
-  if (files.wrote_trajectory) std::printf("trajectory: %s\n", files.trajectory.c_str());
+  if (files.wrote_trajectory && files.trajectory_corrected + files.trajectory_kept > 0)
+    std::printf("trajectory: %s (%lld poses corrected by loop closure, %lld older ones as tracked)\n",
+                files.trajectory.c_str(), static_cast<long long>(files.trajectory_corrected),
+                static_cast<long long>(files.trajectory_kept));
+  else if (files.wrote_trajectory)
+    std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
   if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());
   if (files.wrote_log)

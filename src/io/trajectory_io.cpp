@@ -1,7 +1,5 @@
 #include "io/trajectory_io.h"
 
-#include "io/durable_file.h"
-
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -11,6 +9,8 @@
 
 #include <fcntl.h>
 #include <unistd.h>
+
+#include "io/durable_file.h"
 
 namespace ef {
 

@@ -94,6 +94,9 @@ struct OutputFiles {
   std::string log;                     // the field log, when the run has one
   bool wrote_trajectory = false, wrote_map = false, wrote_stats = false, wrote_log = false;
   uint64_t log_frames = 0;
+  // Pose lines of trajectory.txt that loop closures corrected, and those older than the pose
+  // history left as tracked (both 0 without closures).
+  int64_t trajectory_corrected = 0, trajectory_kept = 0;
   std::vector<Error> errors;  // each output that failed, in order
 };
 

@@ -110,6 +110,8 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   EXPECT_EQ(plan->bytes_of("surfel spatial order"), slam->spatial_order_bytes());
   EXPECT_EQ(plan->bytes_of("keyframe ferns"), slam->keyframe_bytes());
   EXPECT_EQ(plan->bytes_of("deformation graph"), slam->deformation_bytes());
+  EXPECT_EQ(plan->bytes_of("pose history"), slam->pose_history_bytes());
+  EXPECT_GT(slam->pose_history_bytes(), 0u);
   EXPECT_EQ(plan->bytes_of("model prediction"), slam->predictor().bytes());
   auto fusion = slam::SurfelFusion::create(working, so.prediction.index_map_scale, c.mapping.pool.capacity, so.fusion);
   ASSERT_TRUE(fusion.ok());
