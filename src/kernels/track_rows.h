@@ -21,6 +21,7 @@
 //     x0 = int(u), y0 = int(v), ax = u - x0, ay = v - y0
 //     bilinear B(I) = ((w00 I00 + w10 I10) + w01 I01) + w11 I11, w00 = (1 - ax)(1 - ay), w10 = ax (1 - ay),
 //                     w01 = (1 - ax) ay, w11 = ax ay   (I10 is x0 + 1, y0)
+//     and B(Gx) B(Gx) + B(Gy) B(Gy) >= rgb_min_grad2 (a texture gate: see TrackerOptions::rgb_min_gradient_grey):
 //     r = B(I_ref) - c;  gx = (B(Gx) fx) iz, gy = (B(Gy) fy) iz, g = (gx, gy, -((gx X.x + gy X.y) iz))
 //     J = (g, X x g), w = 1 if |r| <= rgb_huber_grey else rgb_huber_grey / |r|   (Huber IRLS weight)
 //   A pixel without a row in a term gets the row of zeros (J = 0, r = 0, w = 0) in that term.
@@ -61,6 +62,9 @@ struct TrackRowsParams {
   float rgb_huber_grey = 15.0f;
   float rgb_max_depth_diff = 0.07f;
   float rgb_max_depth = 6.0f;
+  // Squared grey levels per pixel: an RGB row needs the reference's gradient (bilinear, before the
+  // focal length) with B(Gx)^2 + B(Gy)^2 >= this; 0 keeps every pixel.
+  float rgb_min_grad2 = 0.0f;
   bool use_icp = true;
   bool use_rgb = true;
   bool rgb_depth_gate = true;

@@ -98,16 +98,19 @@ void track_rows_ref(const TrackRowsParams& P, const float* cur_vertex, const flo
             const float* r1 = r0 + s;
             return ((w00 * r0[0] + w10 * r0[1]) + w01 * r1[0]) + w11 * r1[1];
           };
-          const float r = bilinear(P.ref_intensity, P.intensity_stride) - cur_intensity[j];
-          const float gx = (bilinear(P.ref_grad_x, P.grad_x_stride) * P.fx) * iz;
-          const float gy = (bilinear(P.ref_grad_y, P.grad_y_stride) * P.fy) * iz;
-          float J[6] = {gx, gy, -((gx * X[0] + gy * X[1]) * iz), 0, 0, 0};
-          cross(X, J, J + 3);
-          const float a = std::fabs(r);
-          const float w = a <= P.rgb_huber_grey ? 1.0f : P.rgb_huber_grey / a;
-          put_row(rgb_rows, stride, j, J, r, w);
-          rgb_done = true;
-          ++rgb_count;
+          const float bgx = bilinear(P.ref_grad_x, P.grad_x_stride), bgy = bilinear(P.ref_grad_y, P.grad_y_stride);
+          if (bgx * bgx + bgy * bgy >= P.rgb_min_grad2) {
+            const float r = bilinear(P.ref_intensity, P.intensity_stride) - cur_intensity[j];
+            const float gx = (bgx * P.fx) * iz;
+            const float gy = (bgy * P.fy) * iz;
+            float J[6] = {gx, gy, -((gx * X[0] + gy * X[1]) * iz), 0, 0, 0};
+            cross(X, J, J + 3);
+            const float a = std::fabs(r);
+            const float w = a <= P.rgb_huber_grey ? 1.0f : P.rgb_huber_grey / a;
+            put_row(rgb_rows, stride, j, J, r, w);
+            rgb_done = true;
+            ++rgb_count;
+          }
         }
       }
     }

@@ -100,6 +100,7 @@ void track_rows_simd(const TrackRowsParams& P, const float* cur_vertex, const fl
   const F max_d2 = V::set1(P.icp_max_d2), sin2_max = V::set1(P.icp_sin2_max);
   const F huber = V::set1(P.rgb_huber_grey), max_dd = V::set1(P.rgb_max_depth_diff);
   const F max_depth = V::set1(P.rgb_max_depth);
+  const F min_grad2 = V::set1(P.rgb_min_grad2);
   const I three = V::iset1(3);
   const I vstride = V::iset1(static_cast<int>(P.vertex_stride));
   const I nstride = V::iset1(static_cast<int>(P.normal_stride));
@@ -191,9 +192,11 @@ void track_rows_simd(const TrackRowsParams& P, const float* cur_vertex, const fl
           V::gather2(im, V::iadd(i00, s), a01, a11);
           return V::add(V::add(V::add(V::mul(w00, a00), V::mul(w10, a10)), V::mul(w01, a01)), V::mul(w11, a11));
         };
+        const F bgx = bilinear(P.ref_grad_x, gxstride), bgy = bilinear(P.ref_grad_y, gystride);
+        m = V::land(m, V::ge(V::add(V::mul(bgx, bgx), V::mul(bgy, bgy)), min_grad2));
         const F r = V::sub(bilinear(P.ref_intensity, istride), V::load(cur_intensity + j));
-        const F gx = V::mul(V::mul(bilinear(P.ref_grad_x, gxstride), fx), iz);
-        const F gy = V::mul(V::mul(bilinear(P.ref_grad_y, gystride), fy), iz);
+        const F gx = V::mul(V::mul(bgx, fx), iz);
+        const F gy = V::mul(V::mul(bgy, fy), iz);
         const TrVec3<V> g = {gx, gy, V::neg(V::mul(V::add(V::mul(gx, X.x), V::mul(gy, X.y)), iz))};
         const TrVec3<V> xg = tr_cross<V>(X, g);
         const F J[6] = {g.x, g.y, g.z, xg.x, xg.y, xg.z};

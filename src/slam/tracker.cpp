@@ -162,6 +162,10 @@ const opt::Table<TrackerOptions>& TrackerOptions::table() {
        "tracking: the photometric weight rises where the ICP term's condition number exceeds this"},
       {"rgb_boost_max", "rgb_boost_max", "", &TrackerOptions::rgb_boost_max, "", opt::at_least(1),
        "tracking: the most the photometric weight rises there (a factor on rgb_weight)"},
+      {"rgb_min_gradient", "rgb_min_gradient", "", &TrackerOptions::rgb_min_gradient_grey, "grey levels/pixel",
+       opt::between(0, 255), "tracking: a photometric row needs the predicted image's gradient at least this"},
+      {"rgb_gain", "rgb_gain", "", &TrackerOptions::rgb_gain, "", opt::any(),
+       "tracking: compare intensities through a fitted exposure and vignetting gain"},
   };
   return t;
 }
@@ -210,7 +214,8 @@ std::string TrackerOptions::describe() const {
     << rgb_weight << "\nrgb_boost_condition " << rgb_boost_condition << (rgb_boost_condition > 0 ? "" : " (off)")
     << "\nrgb_boost_max " << rgb_boost_max << "\nrgb_sigma_grey " << rgb_sigma_grey << " grey levels\nrgb_huber_k "
     << rgb_huber_k
-    << " sigma\nrgb_max_depth_diff_m " << rgb_max_depth_diff_m << " m\nrgb_max_depth_m " << rgb_max_depth_m
+    << " sigma\nrgb_min_gradient_grey " << rgb_min_gradient_grey << " grey levels/pixel\nrgb_gain " << (rgb_gain ? "on" : "off")
+    << "\nrgb_max_depth_diff_m " << rgb_max_depth_diff_m << " m\nrgb_max_depth_m " << rgb_max_depth_m
     << " m\nlost_min_inlier_fraction " << lost_min_inlier_fraction << "\nlost_min_inliers " << lost_min_inliers
     << " px\nlost_max_icp_rms_m " << lost_max_icp_rms_m << " m\nlost_max_rgb_rms_grey " << lost_max_rgb_rms_grey
     << " grey levels\nlost_max_condition " << lost_max_condition << "\nlost_max_correction_m "
@@ -250,7 +255,8 @@ std::size_t tracker_bytes(const TrackerLayout& t, const Intrinsics& level0, int 
   const std::size_t extra_pixels = static_cast<std::size_t>(t.extra.width) * t.extra.height;
   const std::size_t so3_images = t.so3_level == levels ? 4 * extra_pixels : 0;
   const std::size_t rays = 3 * static_cast<std::size_t>(ks.width) * ks.height;
-  return (2 * kernels::kNeComponents * t.tile_capacity + so3_images + rays) * sizeof(float);
+  const std::size_t gain_row = static_cast<std::size_t>(level0.width);  // the widest level's row
+  return (2 * kernels::kNeComponents * t.tile_capacity + so3_images + rays + gain_row) * sizeof(float);
 }
 
 }  // namespace
@@ -265,6 +271,7 @@ std::size_t Tracker::bytes() const {
   // Counted from what this tracker holds, independently of the layout above.
   const Intrinsics ks = level0_.pyramid_level(so3_level_);
   std::size_t floats = 2 * kernels::kNeComponents * tile_capacity_ + 3 * static_cast<std::size_t>(ks.width) * ks.height;
+  floats += gain_row_width_;
   for (const Image<float>* im : {&so3_ref_intensity_, &so3_ref_grad_x_, &so3_ref_grad_y_, &so3_cur_intensity_})
     floats += static_cast<std::size_t>(im->width()) * im->height();
   return floats * sizeof(float);
@@ -298,6 +305,8 @@ Result<Tracker> Tracker::create(const Intrinsics& level0, int levels, const Trac
   }
   t.tile_capacity_ = layout.tile_capacity;
   t.tile_.reset(new float[2 * kernels::kNeComponents * t.tile_capacity_]());
+  t.gain_row_width_ = static_cast<std::size_t>(level0.width);
+  t.gain_row_.reset(new float[t.gain_row_width_]());
   // Rays K^-1 (x, y, 1) of the SO(3) level: the "vertices" of the rotation-only alignment.
   const Intrinsics ks = level0.pyramid_level(t.so3_level_);
   t.rays_.reset(new float[3 * static_cast<std::size_t>(ks.width) * ks.height]);
@@ -332,8 +341,56 @@ float Tracker::weight_icp_rows_by_depth(const float* vertex, std::size_t n, floa
   return sum;
 }
 
+void Tracker::fit_gain(const TrackerLevelView& cur, int y0, int y1, const PhotoGain& gain, const float* residuals,
+                       const float* weights, Linearisation* out) const {
+  const Intrinsics& k = cur.intrinsics;
+  const double inv_r2 = 1.0 / (static_cast<double>(k.cx) * k.cx + static_cast<double>(k.cy) * k.cy);
+  double ss0 = 0, ss1 = 0, ss2 = 0, sb0 = 0, sb1 = 0;
+  for (int y = y0; y < y1; ++y) {
+    const std::size_t off = static_cast<std::size_t>(y - y0) * k.width;
+    const float* c = cur.intensity.row(y);
+    const double dy = y - static_cast<double>(k.cy);
+    for (int x = 0; x < k.width; ++x) {
+      const double w = weights[off + x];
+      if (!(w > 0.0)) continue;  // no photometric row
+      const double dx = x - static_cast<double>(k.cx);
+      const double rho = (dx * dx + dy * dy) * inv_r2;
+      const double ci = c[x];
+      // The kernel's r = B(I_ref) - gain c, so B(I_ref) = r + gain c.
+      const double ref = residuals[off + x] + (gain.a0 + gain.a2 * rho) * ci;
+      const double wc = w * ci;
+      ss0 += wc * ci;
+      ss1 += wc * ci * rho;
+      ss2 += wc * ci * rho * rho;
+      sb0 += wc * ref;
+      sb1 += wc * ref * rho;
+    }
+  }
+  out->ss[0] += ss0;
+  out->ss[1] += ss1;
+  out->ss[2] += ss2;
+  out->sb[0] += sb0;
+  out->sb[1] += sb1;
+}
+
+void Tracker::PhotoGain::refit(const Linearisation& lin) {
+  // Too few rows to trust a fit: keep the gain. Bounds: what exposure and vignetting can do
+  // between two views (TrackerOptions::rgb_gain); a fit outside them is a misalignment, not a gain.
+  if (lin.rgb_inliers < 64 || !(lin.ss[0] > 0)) return;
+  const double det = lin.ss[0] * lin.ss[2] - lin.ss[1] * lin.ss[1];
+  double b0 = lin.sb[0] / lin.ss[0], b2 = 0;  // without radial spread: the gain alone
+  if (det > 1e-9 * lin.ss[0] * lin.ss[2]) {
+    b0 = (lin.sb[0] * lin.ss[2] - lin.sb[1] * lin.ss[1]) / det;
+    b2 = (lin.ss[0] * lin.sb[1] - lin.ss[1] * lin.sb[0]) / det;
+  }
+  if (!std::isfinite(b0) || !std::isfinite(b2)) return;
+  a0 = std::clamp(b0, 0.25, 4.0);
+  a2 = std::clamp(b2, -1.0, 1.0);
+}
+
 void Tracker::linearise(const TrackerLevelView& ref, const TrackerLevelView& cur, const Eigen::Matrix3f& R,
-                        const Eigen::Vector3f& t, bool use_icp, bool use_rgb, const float* rays, Linearisation* out) {
+                        const Eigen::Vector3f& t, bool use_icp, bool use_rgb, const float* rays,
+                        const PhotoGain* gain, bool fit, Linearisation* out) {
   static_assert(kNeUpper == kernels::kNeOutputs, "Linearisation holds NormalEquations::upper");
   *out = Linearisation{};
   const Intrinsics& k = ref.intrinsics;  // the reference camera: where current points are projected
@@ -368,12 +425,20 @@ void Tracker::linearise(const TrackerLevelView& ref, const TrackerLevelView& cur
   P.rgb_huber_grey = static_cast<float>(options_.rgb_huber_k * options_.rgb_sigma_grey);
   P.rgb_max_depth_diff = options_.rgb_max_depth_diff_m;
   P.rgb_max_depth = options_.rgb_max_depth_m;
+  P.rgb_min_grad2 = static_cast<float>(options_.rgb_min_gradient_grey * options_.rgb_min_gradient_grey);
   P.use_icp = use_icp;
   P.use_rgb = use_rgb;
   P.rgb_depth_gate = rays == nullptr;
 
   const int w = cur.intrinsics.width, h = cur.intrinsics.height;
   const int rows_per_tile = tile_image_rows(w);
+  // Photometric gain: identity until a fit moves it (then the rows are exactly those without it).
+  const bool scale = use_rgb && gain != nullptr && (gain->a0 != 1.0 || gain->a2 != 0.0);
+  const bool fit_rows = use_rgb && gain != nullptr && fit;
+  const Intrinsics& kc = cur.intrinsics;  // rho is about the current image's principal point
+  const float a2 = gain != nullptr ? static_cast<float>(gain->a2 / (static_cast<double>(kc.cx) * kc.cx +
+                                                                     static_cast<double>(kc.cy) * kc.cy))
+                                   : 0.0f;  // per squared pixel
   const std::size_t cap = tile_capacity_;
   float* icp_tile = tile_.get();
   float* rgb_tile = tile_.get() + kernels::kNeComponents * cap;
@@ -388,12 +453,25 @@ void Tracker::linearise(const TrackerLevelView& ref, const TrackerLevelView& cur
       const std::size_t off = static_cast<std::size_t>(y - y0) * w;
       const float* vertex = rays != nullptr ? rays + 3 * static_cast<std::size_t>(y) * w
                                             : reinterpret_cast<const float*>(cur.vertex.row(y));
+      const float* intensity = use_rgb ? cur.intensity.row(y) : nullptr;
+      if (scale) {  // the current row through the gain (PhotoGain): w multiplies, no allocation
+        const float dy = static_cast<float>(y) - kc.cy;
+        const float row = static_cast<float>(gain->a0) + a2 * (dy * dy);
+        float* g = gain_row_.get();
+        for (int x = 0; x < w; ++x) {
+          const float dx = static_cast<float>(x) - kc.cx;
+          g[x] = intensity[x] * (row + a2 * (dx * dx));
+        }
+        intensity = g;
+      }
       kernels::track_rows(P, vertex, use_icp ? reinterpret_cast<const float*>(cur.normal.row(y)) : nullptr,
-                          use_rgb ? cur.intensity.row(y) : nullptr, static_cast<std::size_t>(w),
+                          intensity, static_cast<std::size_t>(w),
                           use_icp ? icp_tile + off : nullptr, use_rgb ? rgb_tile + off : nullptr, cap, &counts);
       if (depth_weighting)
         icp_weight_sum += weight_icp_rows_by_depth(vertex, static_cast<std::size_t>(w), icp_tile + kWeightComponent * cap + off);
     }
+    if (fit_rows && counts.rgb > rgb_before)
+      fit_gain(cur, y0, y1, *gain, rgb_tile + (kWeightComponent - 1) * cap, rgb_tile + kWeightComponent * cap, out);
     // A tile without inliers in a term is all zeros there: it would add exactly nothing.
     const std::size_t n = static_cast<std::size_t>(y1 - y0) * w;
     if (use_icp && counts.icp > icp_before) {
@@ -417,14 +495,15 @@ void Tracker::linearise(const TrackerLevelView& ref, const TrackerLevelView& cur
 }
 
 Matrix3d Tracker::prealign_rotation(const TrackerLevelView& ref, const TrackerLevelView& cur, const Matrix3d& R0,
-                                    TrackResult* res) {
+                                    PhotoGain* gain, TrackResult* res) {
   Matrix3d R = R0;
   Linearisation lin;
   const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
   double first_cost = -1, cost = 0;
   for (int it = 0; it <= options_.so3_iterations; ++it) {
-    linearise(ref, cur, R.cast<float>(), zero, false, true, rays_.get(), &lin);
+    linearise(ref, cur, R.cast<float>(), zero, false, true, rays_.get(), gain, true, &lin);
     if (lin.rgb_inliers < 3) return R0;
+    if (gain != nullptr) gain->refit(lin);
     // Mean robust cost of this rotation (sum w r^2 / pixels with a row): IRLS Huber weights make
     // w r^2 the Huber cost up to a constant per outlier.
     cost = lin.rgb[kernels::ne_index(6, 6)] / static_cast<double>(lin.rgb_inliers);
@@ -478,6 +557,9 @@ Status Tracker::track(const PyramidView& reference, const PyramidView& current, 
   SE3 T = T_ref_cur_guess;
   bool diverged = false;
 
+  PhotoGain gain;
+  const bool gain_on = options_.rgb_gain;
+
   // SO(3) pre-alignment on its level (needs intensity in both frames there).
   const int ls = std::min(so3_level_, levels_ - 1);
   if (options_.so3_prealign && options_.so3_iterations > 0 && has_intensity(reference.level[ls], true) &&
@@ -496,7 +578,7 @@ Status Tracker::track(const PyramidView& reference, const PyramidView& current, 
       cur.intrinsics = ref.intrinsics;
       cur.intensity = so3_cur_intensity_.view();
     }
-    const Matrix3d R = prealign_rotation(ref, cur, T.rotation_matrix(), &res);
+    const Matrix3d R = prealign_rotation(ref, cur, T.rotation_matrix(), gain_on ? &gain : nullptr, &res);
     if (res.so3_applied) T = SE3(R, T.translation());
   }
 
@@ -505,7 +587,8 @@ Status Tracker::track(const PyramidView& reference, const PyramidView& current, 
   double rgb_boost = 1.0;  // of the last linearisation
   const auto linearise_at = [&](int l, Matrix6d* H, Vector6d* g) {
     linearise(reference.level[l], current.level[l], T.rotation_matrix().cast<float>(), T.translation().cast<float>(),
-              icp_on, rgb_level[l], nullptr, &lin);
+              icp_on, rgb_level[l], nullptr, gain_on ? &gain : nullptr, l > 0, &lin);
+    if (gain_on && rgb_level[l] && l > 0) gain.refit(lin);
     H->setZero();
     g->setZero();
     if (icp_on) accumulate(lin.icp, c_icp, H, g);
@@ -546,6 +629,8 @@ Status Tracker::track(const PyramidView& reference, const PyramidView& current, 
   res.icp_inliers = lin.icp_inliers;
   res.rgb_inliers = lin.rgb_inliers;
   res.rgb_boost = rgb_boost;
+  res.gain_a0 = gain.a0;
+  res.gain_a2 = gain.a2;
   const int r2 = kernels::ne_index(6, 6);
   res.icp_rms_m = lin.icp_inliers > 0 ? std::sqrt(lin.icp[r2] / static_cast<double>(lin.icp_inliers)) : 0.0;
   res.rgb_rms_grey = lin.rgb_inliers > 0 ? std::sqrt(lin.rgb[r2] / static_cast<double>(lin.rgb_inliers)) : 0.0;

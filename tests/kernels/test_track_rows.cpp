@@ -291,6 +291,9 @@ TEST(TrackRows, GatesAtTheirLimitsAgreeToo) {
     for (float s2 : {1e-4f, 0.03f, 1.0f})
       for (float huber : {0.5f, 15.0f, 1e6f}) {
         TrackRowsParams q = p;
+        // The texture gate: off, passing a share of the pixels (gradients up to 30 grey levels per
+        // pixel in each direction), passing none.
+        q.rgb_min_grad2 = huber == 0.5f ? 0.0f : huber == 15.0f ? 300.0f : 1e6f;
         q.icp_max_d2 = d2;
         q.icp_sin2_max = s2;
         q.rgb_huber_grey = huber;
@@ -363,6 +366,17 @@ TEST(TrackRows, ReferenceFollowsTheFormulas) {
   track_rows_ref(p, v.data(), nullptr, in.data(), 4, nullptr, rgb.data(), 4, &c2);
   EXPECT_EQ(c2.rgb, 3);
   EXPECT_EQ(c2.icp, 0);
+  // The texture gate: the gradient is (10, 20) grey levels per pixel everywhere, |g|^2 = 500 exactly.
+  p.rgb_min_grad2 = 500.0f;
+  TrackRowsCounts c3;
+  track_rows_ref(p, v.data(), nullptr, in.data(), 4, nullptr, rgb.data(), 4, &c3);
+  EXPECT_EQ(c3.rgb, 3);
+  p.rgb_min_grad2 = 501.0f;
+  TrackRowsCounts c4;
+  track_rows_ref(p, v.data(), nullptr, in.data(), 4, nullptr, rgb.data(), 4, &c4);
+  EXPECT_EQ(c4.rgb, 0);
+  for (std::size_t j = 0; j < 4; ++j)
+    for (int k = 0; k < 8; ++k) EXPECT_EQ(rgb.at(k, j), 0.0f) << "gated rgb row " << j << " component " << k;
 }
 
 // The same fixed input gives the same bits on x86-64 and AArch64 (FNV-1a over both row arrays and

@@ -177,8 +177,8 @@ TEST(Tracker, BytesForIsWhatCreateAllocates) {
   }
   // 320x240 by default: the largest tile of whole rows of at most 2048 pixels is 25 rows of the
   // 80-pixel level 2 (2000 pixels; level 0 has 6 x 320 = 1920), x 2 x 8 floats; then the 40x30 extra
-  // level's four images and its rays (3 floats per pixel).
-  EXPECT_EQ(Tracker::bytes_for(320, 240, 3, {}), (2000 * 16 + 1200 * 4 + 1200 * 3) * sizeof(float));
+  // level's four images and its rays (3 floats per pixel); one 320-pixel row for the photometric gain.
+  EXPECT_EQ(Tracker::bytes_for(320, 240, 3, {}), (2000 * 16 + 1200 * 4 + 1200 * 3 + 320) * sizeof(float));
 }
 
 TEST(Tracker, RejectsMismatchedPyramids) {
@@ -324,6 +324,60 @@ TEST(Tracker, PlaneIsIllConditionedForIcpAlone) {
   EXPECT_LT(rj.condition, ri.condition);
   // ICP's own system is as singular here as it gets, so the photometric weight is at its most.
   EXPECT_EQ(rj.rgb_boost, TrackerOptions{}.rgb_boost_max);
+}
+
+// A fronto-parallel textured plane z0 metres away, seen from a camera at `shift` (metres, x y only):
+// ICP pins depth and tilt, only colour pins the slide along the plane. `gain` multiplies the colour
+// per pixel (exposure and vignetting of the current camera).
+template <class Gain>
+void render_textured_plane(Frame& f, const Intrinsics& K, double z0, const Eigen::Vector2d& shift, Gain gain) {
+  f.allocate(K.width, K.height, false);
+  const double r2 = static_cast<double>(K.cx) * K.cx + static_cast<double>(K.cy) * K.cy;
+  for (int y = 0; y < K.height; ++y)
+    for (int x = 0; x < K.width; ++x) {
+      const double X = (x - K.cx) / K.fx * z0 + shift.x(), Y = (y - K.cy) / K.fy * z0 + shift.y();
+      const double rho = ((x - K.cx) * (x - K.cx) + (y - K.cy) * (y - K.cy)) / r2;
+      const double g = gain(rho);
+      const auto level = [g](double v) { return static_cast<uint8_t>(std::clamp(g * v, 0.0, 255.0)); };
+      f.depth(x, y) = static_cast<float>(z0);
+      f.color(x, y) = Rgb8{level(130 + 70 * std::sin(X * 35) * std::cos(Y * 25)), level(120 + 60 * std::cos(X * 20 + Y * 30)),
+                           level(100)};
+    }
+}
+
+TEST(Tracker, PhotometricGainTakesExposureAndVignetting) {
+  // The current camera 2 cm beside the reference, its image darker (exposure 0.7) and darker still
+  // towards the corners (35% lost there): without the gain the residuals of the brightness pull the
+  // slide along the plane, which only colour can measure.
+  const Intrinsics K = ef::test::kinect_320x240();
+  const Eigen::Vector2d shift(0.02, -0.012);
+  Frame a, b;
+  render_textured_plane(a, K, 1.5, Eigen::Vector2d::Zero(), [](double) { return 1.0; });
+  render_textured_plane(b, K, 1.5, shift, [](double rho) { return 0.7 * (1.0 - 0.35 * rho); });
+  SE3 T_w_b;
+  T_w_b = SE3(Eigen::Matrix3d::Identity(), Eigen::Vector3d(shift.x(), shift.y(), 0));
+  auto p = make_pair(K, a, b, SE3(), T_w_b);
+  const TrackResult on = run(*p);
+  expect_tracked("plane, gain fitted", *p, on, 0.002, 0.1);
+  std::printf("[ tracker ] fitted gain %.3f + %.3f rho (the image's inverse: %.3f at the centre)\n", on.gain_a0,
+              on.gain_a2, 1 / 0.7);
+  EXPECT_NEAR(on.gain_a0, 1 / 0.7, 0.1);
+  EXPECT_GT(on.gain_a2, 0.2);  // brighter towards the corners to undo the vignetting
+  TrackerOptions off;
+  off.rgb_gain = false;
+  const TrackResult r_off = run(*p, off);
+  report("plane, gain off", *p, r_off);
+  EXPECT_EQ(r_off.gain_a0, 1.0);
+  EXPECT_EQ(r_off.gain_a2, 0.0);
+  EXPECT_GT(pose_error(r_off.T_ref_cur, p->truth).t_m, 3 * pose_error(on.T_ref_cur, p->truth).t_m);
+  // The same images with equal brightness: the gain stays near 1 and tracking is as good.
+  Frame c;
+  render_textured_plane(c, K, 1.5, shift, [](double) { return 1.0; });
+  auto q = make_pair(K, a, c, SE3(), T_w_b);
+  const TrackResult same = run(*q);
+  expect_tracked("plane, equal brightness", *q, same, 0.002, 0.1);
+  EXPECT_NEAR(same.gain_a0, 1.0, 0.03);
+  EXPECT_NEAR(same.gain_a2, 0.0, 0.05);
 }
 
 TEST(Tracker, RgbWeightRisesWithTheIcpCondition) {
