@@ -1,5 +1,6 @@
 #include "core/se3.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace ef {
@@ -69,6 +70,16 @@ Eigen::Matrix4d SE3::matrix() const {
 double SE3::angle() const {
   // atan2 rather than acos(|w|): acos loses all precision for small angles (|w| rounds to 1).
   return 2.0 * std::atan2(q_.vec().norm(), std::abs(q_.w()));
+}
+
+void SE3::to_words(double* w) const {
+  const double v[kWords] = {t_.x(), t_.y(), t_.z(), q_.x(), q_.y(), q_.z(), q_.w()};
+  std::copy(v, v + kWords, w);
+}
+
+bool SE3::words_are_pose(const double* w) {
+  const double norm2 = w[3] * w[3] + w[4] * w[4] + w[5] * w[5] + w[6] * w[6];
+  return std::abs(norm2 - 1.0) < 1e-6 && std::isfinite(w[0] + w[1] + w[2]);
 }
 
 }  // namespace ef

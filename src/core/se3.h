@@ -50,6 +50,17 @@ class SE3 {
   // Rotation angle of this transform, radians in [0, pi].
   double angle() const;
 
+  // As 7 doubles, translation xyz then quaternion xyzw (the TUM order): how checkpoints, the pose
+  // history and the keyframe database store a pose. from_words takes the quaternion as it is (bit
+  // for bit, as from_unit_quaternion); words_are_pose says whether 7 stored words are one (finite
+  // translation, quaternion within 1e-6 of unit length), for data read back from a file.
+  static constexpr int kWords = 7;
+  void to_words(double* w) const;
+  static SE3 from_words(const double* w) {
+    return from_unit_quaternion(Eigen::Quaterniond(w[6], w[3], w[4], w[5]), Eigen::Vector3d(w[0], w[1], w[2]));
+  }
+  static bool words_are_pose(const double* w);
+
  private:
   Eigen::Quaterniond q_;  // unit quaternion
   Eigen::Vector3d t_;     // metres

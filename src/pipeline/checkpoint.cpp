@@ -29,22 +29,20 @@ double as_double(uint64_t w) {
   return v;
 }
 
-// An SE3 as 7 words: translation xyz, quaternion xyzw.
+// An SE3 as 7 words (SE3::to_words).
 void put_pose(uint64_t* w, const SE3& T) {
-  const Eigen::Vector3d& t = T.translation();
-  const Eigen::Quaterniond q = T.rotation();
-  const double v[7] = {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()};
-  for (int i = 0; i < 7; ++i) w[i] = word(v[i]);
+  double v[SE3::kWords];
+  T.to_words(v);
+  for (int i = 0; i < SE3::kWords; ++i) w[i] = word(v[i]);
 }
 // Bit for bit as it was saved (SE3's constructor would normalise the quaternion again, moving its
 // last bits, and the resumed run would drift from the uninterrupted one by rounding). A stored
 // quaternion far from unit length is a corrupt file.
 Result<SE3> get_pose(const uint64_t* w) {
-  const Eigen::Quaterniond q(as_double(w[6]), as_double(w[3]), as_double(w[4]), as_double(w[5]));
-  const Eigen::Vector3d t(as_double(w[0]), as_double(w[1]), as_double(w[2]));
-  if (!(std::abs(q.norm() - 1.0) < 1e-6) || !t.allFinite())
-    return error(ErrorCode::kCorruptData, "a pose that is not a rigid transform");
-  return SE3::from_unit_quaternion(q, t);
+  double v[SE3::kWords];
+  for (int i = 0; i < SE3::kWords; ++i) v[i] = as_double(w[i]);
+  if (!SE3::words_are_pose(v)) return error(ErrorCode::kCorruptData, "a pose that is not a rigid transform");
+  return SE3::from_words(v);
 }
 
 // The pool's columns in file order: (pointer, bytes per surfel).
@@ -122,7 +120,7 @@ Status write_checkpoint(const std::string& folder, const CheckpointMeta& meta, c
   const uint64_t kh[kKeyframeHeaderWords] = {kn, static_cast<uint64_t>(kf.ferns()), kf.refused(), 0};
   const SnapshotWriter::Part kparts[4] = {{kh, sizeof kh},
                                           {kf.code(0), kn * static_cast<uint64_t>(kf.ferns())},
-                                          {kf.pose_words(), kn * 7 * sizeof(double)},
+                                          {kf.pose_words(), kn * SE3::kWords * sizeof(double)},
                                           {kf.frames(), kn * sizeof(int32_t)}};
   EF_RETURN_IF_ERROR(w.section(kKeyframes, kparts, 4));
 
@@ -240,13 +238,13 @@ Status read_keyframes(const SnapshotReader& r, slam::KeyframeFerns& kf) {
     return error(ErrorCode::kInvalidArgument, r.path() + ": holds " + std::to_string(n) +
                                                   " keyframes, more than mapping.keyframe_capacity " +
                                                   std::to_string(kf.capacity()));
-  const uint64_t expected = sizeof kh + n * (ferns + 7 * sizeof(double) + sizeof(int32_t));
+  const uint64_t expected = sizeof kh + n * (ferns + SE3::kWords * sizeof(double) + sizeof(int32_t));
   if (r.size(kKeyframes) != expected)
     return error(ErrorCode::kCorruptData, r.path() + ": section KEYF has " + std::to_string(r.size(kKeyframes)) +
                                               " bytes; " + std::to_string(n) + " keyframes take " +
                                               std::to_string(expected));
   std::vector<uint8_t> codes(n * ferns);
-  std::vector<double> poses(n * 7);
+  std::vector<double> poses(n * SE3::kWords);
   std::vector<int32_t> frames(n);
   uint64_t offset = sizeof kh;
   EF_RETURN_IF_ERROR(r.read(kKeyframes, codes.data(), codes.size(), offset));

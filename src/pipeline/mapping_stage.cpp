@@ -116,10 +116,10 @@ Status MappingStage::step(const PreparedFrame& slot) {
   return Status::success();
 }
 
-Status MappingStage::close_trajectory() {
+Result<TumRewrite> MappingStage::close_trajectory() {
   EF_RETURN_IF_ERROR(trajectory_.close());
   const slam::PoseHistory& history = slam_.pose_history();
-  if (history.deformations() == 0 || final_bytes_ >= 0) return Status::success();
+  if (history.deformations() == 0 || final_bytes_ >= 0) return TumRewrite{};
   // Lines of frames older than the history stay as tracked; the comment says how many.
   const std::string key = "poses corrected by loop closure";
   const std::string comment = key + " (" + std::to_string(history.deformations()) + " closures): every frame's from " +
@@ -129,9 +129,7 @@ Status MappingStage::close_trajectory() {
       trajectory_.path(), [&history](double t, SE3* T) { return history.at_time(t, T); }, comment, key.size());
   if (!rewritten.ok()) return rewritten.take_error();
   final_bytes_ = rewritten->bytes;
-  corrected_lines_ = rewritten->corrected;
-  kept_lines_ = rewritten->kept;
-  return Status::success();
+  return rewritten;
 }
 
 Status MappingStage::drain_cnn() {

@@ -74,8 +74,9 @@ class MappingStage {
   // rewritten whole with the corrected poses of the frames the SLAM's pose history holds
   // (slam/pose_history.h; io/trajectory_io.h rewrite_tum_poses): the lines written while mapping are
   // the poses as tracked, the final file has the poses in the deformed map's frame, and a comment
-  // after the header says so. Allocates (the file is read whole): not on the per-frame path.
-  Status close_trajectory();
+  // after the header says so. Returns what the rewrite did (all zeros without one). Allocates (the
+  // file is read whole): not on the per-frame path.
+  Result<TumRewrite> close_trajectory();
   // Syncs the trajectory and returns its length (for a checkpoint; after close_trajectory(), the
   // rewritten file's).
   Result<int64_t> sync_trajectory() {
@@ -83,9 +84,6 @@ class MappingStage {
     EF_RETURN_IF_ERROR(trajectory_.flush());
     return trajectory_.bytes();
   }
-  // Pose lines the closing rewrite corrected and left as tracked (older than the pose history).
-  int64_t trajectory_corrected() const { return corrected_lines_; }
-  int64_t trajectory_kept() const { return kept_lines_; }
   double last_timestamp() const { return last_timestamp_; }
 
  private:
@@ -104,7 +102,6 @@ class MappingStage {
   slam::SlamFrameResult result_;
   int64_t frames_ = 0;
   int64_t final_bytes_ = -1;   // the rewritten trajectory's length (-1: not rewritten)
-  int64_t corrected_lines_ = 0, kept_lines_ = 0;
   double last_timestamp_ = 0;  // of the last mapped frame
   char line_[160] = {};  // the '# lost' comment, formatted without the heap
   struct StageIds {

@@ -368,12 +368,12 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   out.stats = (dir / "stats.json").string();
   slam::SurfelSlam& slam = mapping_->slam();
 
-  if (Status s = mapping_->close_trajectory(); !s.ok()) {
-    out.errors.push_back(s.error());
+  if (auto closed = mapping_->close_trajectory(); !closed.ok()) {
+    out.errors.push_back(closed.error());
   } else {
     out.wrote_trajectory = true;
-    out.trajectory_corrected = mapping_->trajectory_corrected();
-    out.trajectory_kept = mapping_->trajectory_kept();
+    out.trajectory_corrected = closed->corrected;
+    out.trajectory_kept = closed->kept;
   }
   if (semantics_ != nullptr) {
     if (Status s = semantics_->finish(slam); !s.ok()) out.errors.push_back(s.error());

@@ -62,7 +62,7 @@ std::string KeyframeFernOptions::describe() const {
 
 std::size_t KeyframeFerns::bytes_for(const KeyframeFernOptions& o) {
   const std::size_t n = static_cast<std::size_t>(std::max(o.capacity, 0));
-  return n * (static_cast<std::size_t>(std::max(o.ferns, 0)) + 7 * sizeof(double) + sizeof(int32_t)) +
+  return n * (static_cast<std::size_t>(std::max(o.ferns, 0)) + SE3::kWords * sizeof(double) + sizeof(int32_t)) +
          static_cast<std::size_t>(std::max(o.ferns, 0)) * sizeof(Fern);
 }
 
@@ -95,7 +95,7 @@ Result<KeyframeFerns> KeyframeFerns::create(int width, int height, const Keyfram
   }
   const std::size_t cap = static_cast<std::size_t>(options.capacity);
   f.codes_.reset(new uint8_t[cap * static_cast<std::size_t>(options.ferns)]());
-  f.poses_.reset(new double[cap * 7]());
+  f.poses_.reset(new double[cap * SE3::kWords]());
   f.frames_.reset(new int32_t[cap]());
   return f;
 }
@@ -191,17 +191,10 @@ int32_t KeyframeFerns::add_if_novel(const FernCode& code, const SE3& T_world_cam
 }
 
 SE3 KeyframeFerns::pose(int32_t id) const {
-  const double* w = poses_.get() + static_cast<std::size_t>(id) * 7;
-  return SE3::from_unit_quaternion(Eigen::Quaterniond(w[6], w[3], w[4], w[5]), Eigen::Vector3d(w[0], w[1], w[2]));
+  return SE3::from_words(poses_.get() + static_cast<std::size_t>(id) * SE3::kWords);
 }
 
-void KeyframeFerns::set_pose(int32_t id, const SE3& T) {
-  double* w = poses_.get() + static_cast<std::size_t>(id) * 7;
-  const Eigen::Vector3d& t = T.translation();
-  const Eigen::Quaterniond q = T.rotation();
-  const double v[7] = {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()};
-  std::copy(v, v + 7, w);
-}
+void KeyframeFerns::set_pose(int32_t id, const SE3& T) { T.to_words(poses_.get() + static_cast<std::size_t>(id) * SE3::kWords); }
 
 Status KeyframeFerns::restore(int32_t count, const uint8_t* codes, const double* pose_words, const int32_t* frames,
                               uint64_t refused) {
@@ -212,13 +205,11 @@ Status KeyframeFerns::restore(int32_t count, const uint8_t* codes, const double*
                                                   " (mapping.keyframe_capacity must be at least the checkpoint's)");
   std::copy(codes, codes + static_cast<std::size_t>(count) * options_.ferns, codes_.get());
   for (int32_t i = 0; i < count; ++i) {
-    const double* w = pose_words + static_cast<std::size_t>(i) * 7;
-    const double norm2 = w[3] * w[3] + w[4] * w[4] + w[5] * w[5] + w[6] * w[6];
-    if (!(std::abs(norm2 - 1.0) < 1e-6) || !std::isfinite(w[0] + w[1] + w[2]))
+    if (!SE3::words_are_pose(pose_words + static_cast<std::size_t>(i) * SE3::kWords))
       return error(ErrorCode::kCorruptData, "keyframe ferns: keyframe " + std::to_string(i) +
                                                 "'s pose is not a rigid transform");
   }
-  std::copy(pose_words, pose_words + static_cast<std::size_t>(count) * 7, poses_.get());
+  std::copy(pose_words, pose_words + static_cast<std::size_t>(count) * SE3::kWords, poses_.get());
   std::copy(frames, frames + count, frames_.get());
   size_ = count;
   refused_ = refused;

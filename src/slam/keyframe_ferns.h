@@ -111,7 +111,7 @@ class KeyframeFerns {
   const double* pose_words() const { return poses_.get(); }
   const int32_t* frames() const { return frames_.get(); }
   // Restores the database from a checkpoint: `count` keyframes, their codes (count x ferns bytes),
-  // pose words (count x 7) and frames. Errors: count > capacity, a pose that is not rigid.
+  // pose words (count x SE3::kWords) and frames. Errors: count > capacity, a pose that is not rigid.
   Status restore(int32_t count, const uint8_t* codes, const double* pose_words, const int32_t* frames,
                  uint64_t refused);
 

@@ -10,16 +10,13 @@ namespace ef::slam {
 
 namespace {
 
+// A record: the timestamp, then the pose's SE3 words.
 void put(double* w, double timestamp, const SE3& T) {
-  const Eigen::Vector3d& t = T.translation();
-  const Eigen::Quaterniond& q = T.rotation();
-  const double v[PoseHistory::kWords] = {timestamp, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()};
-  std::copy(v, v + PoseHistory::kWords, w);
+  w[0] = timestamp;
+  T.to_words(w + 1);
 }
 
-SE3 get(const double* w) {
-  return SE3::from_unit_quaternion(Eigen::Quaterniond(w[7], w[4], w[5], w[6]), Eigen::Vector3d(w[1], w[2], w[3]));
-}
+SE3 get(const double* w) { return SE3::from_words(w + 1); }
 
 }  // namespace
 
@@ -89,8 +86,7 @@ Status PoseHistory::restore(int64_t first, int64_t count, int64_t overwritten, i
     return error(ErrorCode::kCorruptData, "pose history: impossible frame counts");
   for (int64_t i = 0; i < count; ++i) {
     const double* w = records + i * kWords;
-    const double norm2 = w[4] * w[4] + w[5] * w[5] + w[6] * w[6] + w[7] * w[7];
-    if (!(std::abs(norm2 - 1.0) < 1e-6) || !std::isfinite(w[0] + w[1] + w[2] + w[3]))
+    if (!std::isfinite(w[0]) || !SE3::words_are_pose(w + 1))
       return error(ErrorCode::kCorruptData, "pose history: frame " + std::to_string(first + i) +
                                                 "'s record is not a timestamp and a rigid pose");
     if (i > 0 && !(w[0] >= w[-kWords]))

@@ -26,7 +26,7 @@ class DeformationGraph;
 
 class PoseHistory {
  public:
-  static constexpr int kWords = 8;  // doubles a record: timestamp, tx ty tz, qx qy qz qw
+  static constexpr int kWords = 1 + SE3::kWords;  // doubles a record: timestamp, then the pose (SE3::to_words)
   static constexpr std::size_t kBytesPerFrame = kWords * sizeof(double);
   // capacity >= 0 frames (0: keeps nothing).
   static Result<PoseHistory> create(int64_t capacity);
