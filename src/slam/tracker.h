@@ -202,8 +202,9 @@ struct TrackerOptions {
   // the seed-7 inspecting scan slid 4 cm a frame along the wall from frame 3 on (ATE 79 cm, 41 lost).
   // Measured with rgb_gain on (seed 7, 300 frames): 0 -> 72 cm, 1.5 -> 6.5 mm; without the gain,
   // 1 grey level still slid 3 cm a frame, 2 and 3 tracked. Kept low because shading is real signal
-  // on the ideal camera's untextured scans: 3 without the gain lost seed 5006 (220 frames, 1.3 m),
-  // 1.5 holds every one of the eleven within 13 mm. 7-Scenes: 2.66 cm at 0, 1.5 or 3.
+  // on the ideal camera's untextured scans: 3 without the gain lost seed 5006 (220 frames, 1.3 m);
+  // 1.5 with the gain holds every one of the eleven within 21 mm (bench/relocalisation.py --scans).
+  // 7-Scenes without the gain: 2.66 cm at 0, 1.5 or 3.
   double rgb_min_gradient_grey = 1.5;
   // Photometric compensation: the photometric residual compares the prediction with the current
   // image times a gain fitted to the pair as the pose is (PhotoGain), a0 + a2 rho (rho the
@@ -217,7 +218,7 @@ struct TrackerOptions {
   // mm with it; seed 6 19 cm -> 4.5 mm; seeds 1, 2, 4, 5, 8 unchanged (4.5-8.5 mm); seed 7 needs it
   // and the texture gate together (72 cm with the gain alone, 6.5 mm with both). Real 7-Scenes
   // (1000 frames): ATE 2.69 cm with it, 2.66 without; tracking 1.80 ms a frame against 1.56 (median,
-  // one run each, this machine's Xeon): the current rows are scaled on every step of every level,
+  // one run each, 2 cores of an AMD EPYC): the current rows are scaled on every level-0 step too,
   // the fit is made on the coarse levels only.
   bool rgb_gain = true;
   // Gates: |reference depth - warped depth|, metres (ElasticFusion 0.07 m); warped depth at most
