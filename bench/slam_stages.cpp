@@ -2,6 +2,7 @@
 // open_source(URI), each frame resampled to the working resolution (resample_frame), then
 // SurfelSlam::process with the default options (those of `edgefusion run` without a config file).
 //   bench_slam_stages [--source URI] [--frames N] [--resolution WxH] [--warmup N] [--associate tracked|previous]
+//                     [--window N]
 // Defaults: the 7-Scenes redkitchen sequence of the shared data when present, else
 // synthetic:?frames=1000; every frame; 320x240; 10 warm-up frames; fusion associating through an
 // index map at the tracked pose (SurfelSlamOptions::associate_at_tracked_pose; previous = false).
@@ -10,7 +11,9 @@
 // clock, SlamFrameResult::timings; track over frames after the first, fuse over fused frames), the
 // thread CPU time of process(), the surfels at the end, lost frames and, when the source has
 // reference poses, the ATE RMSE (TUM conventions, eval/trajectory_eval.h) over every frame.
-// One thread: SurfelSlam is single threaded. Exit 2: bad options or a source that cannot be opened.
+// --window N also prints, for every N frames, the medians of the four stages and their sum, the
+// surfels at the window's end and the share of pool blocks predict visited (how the cost grows with
+// the map: bench/slam_growth.sh). One thread: SurfelSlam is single threaded. Exit 2: bad options or a source that cannot be opened.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -91,12 +94,13 @@ int usage(const char* why) {
   if (why) std::fprintf(stderr, "bench_slam_stages: %s\n", why);
   std::fprintf(stderr,
                "usage: bench_slam_stages [--source URI] [--frames N] [--resolution WxH] [--warmup N]\n"
-               "                         [--associate tracked|previous]\n"
+               "                         [--associate tracked|previous] [--window N]\n"
                "  --source URI       default %s\n"
                "  --frames N         frames to process, default every frame of the source\n"
                "  --resolution WxH   working resolution, default 320x240\n"
                "  --warmup N         first frames left out of the stage statistics, default 10\n"
-               "  --associate WHERE  fusion's index map: at the tracked pose (default) or the previous one\n",
+               "  --associate WHERE  fusion's index map: at the tracked pose (default) or the previous one\n"
+               "  --window N         also print the stage medians of every N frames (default 0: none)\n",
                default_source().c_str());
   return 2;
 }
@@ -107,6 +111,7 @@ int main(int argc, char** argv) {
   std::string uri;
   int64_t max_frames = -1;
   int width = 320, height = 240, warmup = 10;
+  int64_t window = 0;
   ef::slam::SurfelSlamOptions options;
   for (int i = 1; i < argc; ++i) {
     const std::string opt = argv[i];
@@ -126,6 +131,9 @@ int main(int argc, char** argv) {
       const long w = std::strtol(v, &end, 10);
       if (*end || w < 0) return usage("--warmup wants an integer >= 0");
       warmup = static_cast<int>(w);
+    } else if (opt == "--window") {
+      window = std::strtoll(v, &end, 10);
+      if (*end || window < 1) return usage("--window wants a positive integer");
     } else if (opt == "--associate") {
       if (std::strcmp(v, "tracked") != 0 && std::strcmp(v, "previous") != 0)
         return usage("--associate wants tracked or previous");
@@ -177,6 +185,12 @@ int main(int argc, char** argv) {
   // Parts of fuse (fused frames) and predict, from FusionStats and PredictionTimings.
   std::vector<double> index_ms, associate_ms, clean_ms, create_ms, reorder_ms, clear_ms, render_ms, resolve_ms, pyramid_ms;
   int64_t reorders = 0;
+  std::vector<double> visited_share;  // predict's pool blocks visited / blocks (slam/surfel_pool.h: block bounds)
+  // The current --window's samples: preprocess, track, fuse, predict, their sum, visited share.
+  std::vector<double> win[6];
+  if (window > 0)
+    std::printf("  %-13s %9s %8s %8s %8s %8s %8s %8s  (medians, ms; blocks: predict's share visited)\n", "frames",
+                "surfels", "prepro", "track", "fuse", "predict", "sum", "blocks");
   std::vector<ef::TimedPose> estimate, reference;
   ef::slam::SlamFrameResult r;
   int64_t frames = 0, lost_measured = 0;
@@ -219,6 +233,8 @@ int main(int argc, char** argv) {
         render_ms.push_back(p.render_ms);
         resolve_ms.push_back(p.resolve_ms);
         pyramid_ms.push_back(p.pyramid_ms);
+        const ef::slam::PredictionCounters& pc = slam.predictor().counters();
+        if (pc.blocks > 0) visited_share.push_back(static_cast<double>(pc.blocks_visited) / static_cast<double>(pc.blocks));
       }
       predict_ms.push_back(t.predict_ms);
       sum_ms.push_back(t.preprocess_ms + t.track_ms + t.fuse_ms + t.predict_ms);
@@ -226,6 +242,25 @@ int main(int argc, char** argv) {
       cpu_ms.push_back(c);
       input_ms.push_back(read_ms);
       lost_measured += r.lost ? 1 : 0;
+    }
+    if (window > 0) {
+      const ef::slam::SlamTimings& t = r.timings;
+      const ef::slam::PredictionCounters& pc = slam.predictor().counters();
+      const double sample[6] = {t.preprocess_ms, t.track_ms, t.fuse_ms, t.predict_ms,
+                                t.preprocess_ms + t.track_ms + t.fuse_ms + t.predict_ms,
+                                pc.blocks > 0 ? static_cast<double>(pc.blocks_visited) / static_cast<double>(pc.blocks) : 0};
+      if (r.fused)
+        for (int k = 0; k < 6; ++k) win[k].push_back(sample[k]);
+      if ((frames + 1) % window == 0) {
+        char span[32];
+        std::snprintf(span, sizeof(span), "%lld-%lld", static_cast<long long>(frames + 1 - window),
+                      static_cast<long long>(frames));
+        std::printf("  %-13s %9lld %8.2f %8.2f %8.2f %8.2f %8.2f %7.0f%%\n", span,
+                    static_cast<long long>(slam.pool().size()), median(win[0]), median(win[1]), median(win[2]),
+                    median(win[3]), median(win[4]), 100 * median(win[5]));
+        std::fflush(stdout);
+        for (auto& w : win) w.clear();
+      }
     }
     ++frames;
     if (frames % 100 == 0)
@@ -259,6 +294,9 @@ int main(int argc, char** argv) {
   row("process() total", process_ms);
   row("process() thread CPU time", cpu_ms);
   row("source next() + resample (not in the sum)", input_ms);
+  std::printf("predict visits %.0f%% of the pool's blocks (median; p95 %.0f%%); bounds recomputed %llu times\n",
+              100 * median(visited_share), 100 * percentile(visited_share, 0.95),
+              static_cast<unsigned long long>(slam.pool().bounds_refreshes()));
   const ef::slam::SurfelPoolCounters& pc = slam.pool().counters();
   std::printf("surfels at the end: %lld (capacity %lld; created %llu, removed %llu, evicted %llu, refused %llu)\n",
               static_cast<long long>(slam.pool().size()), static_cast<long long>(slam.pool().capacity()),

@@ -112,7 +112,9 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
   add("slam tracker", slam::Tracker::bytes_for(w, h, levels, slam.tracker), "row tiles, the SO(3) level's images and rays");
   add("surfel pool", slam::SurfelPool::bytes_for(capacity),
       std::to_string(capacity) + " surfels x " + std::to_string(slam::SurfelPool::kBytesPerSurfel) + " bytes (label store " +
-          std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included)");
+          std::to_string(slam::SurfelPool::kLabelBytesPerSurfel) + " included) + " +
+          std::to_string(sizeof(slam::SurfelPool::BlockBounds)) + " bytes of bounds per " +
+          std::to_string(slam::SurfelPool::kBoundsBlock) + " surfels");
   add("surfel spatial order", slam::SpatialOrder::bytes_for(capacity),
       "8 bytes x capacity + a " + std::to_string(slam::SpatialOrder::kKeys / 1024 * 4) + " KiB histogram");
   add("model prediction", slam::ModelPredictor::bytes_for(w, h, levels, slam.prediction),

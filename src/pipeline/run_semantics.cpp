@@ -183,7 +183,7 @@ Status RunSemantics::fuse_job(const CnnJob& job, int64_t now, const Frame* worki
       stats_->increment(c_unfused_);
       return Status::success();
     }
-    map = &slam.predictor().index_map();
+    map = &slam.predictor_with_index_map().index_map();
     depth = working->depth.view();
     pose = result->T_world_cam;
   } else {
@@ -304,7 +304,7 @@ Status RunSemantics::write_rendering(const Frame& working, const CnnResult& cnn,
     // The prediction still shows the last good pose: the CNN's own prediction is all we have.
     rendered_.copy_from(cnn.labels.view());
   } else {
-    auto r = semantic::render_labels(slam.predictor(), slam.pool(), cnn.labels.view(), rendered_.view(),
+    auto r = semantic::render_labels(slam.predictor_with_index_map(), slam.pool(), cnn.labels.view(), rendered_.view(),
                                      visible_depth(working.depth.view()));
     if (!r.ok()) return r.take_error();
   }

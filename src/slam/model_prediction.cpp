@@ -24,7 +24,7 @@ constexpr float kMaxSplatCapPx = 64.0f;
 // Surfels per block of the pass over the pool: a block's transformed columns (5 x 4 bytes x 256 =
 // 5 KiB, two blocks on the stack) and its discs (11 KiB) stay in L1 between the vectorised loops and
 // the scalar ones.
-constexpr int kBlock = 256;
+constexpr int kBlock = SurfelPool::kBoundsBlock;  // surfels per block of work: the pool's bounds blocks
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
 using Clock = SteadyClock;
@@ -46,6 +46,7 @@ struct ModelPredictor::Pose {
   int32_t oldest_frame;  // surfels with last_seen < this are outside the active window
   int32_t seen_before;   // and those with last_seen >= this are left out too (the inactive model)
   int32_t index_oldest = INT32_MIN;  // the index map's own window: surfels last seen before are left out
+  bool draw_index = true;            // false: the index map is not drawn (IndexMapDraw::kSkip)
 };
 
 const opt::Table<PredictionOptions>& PredictionOptions::table() {
@@ -199,32 +200,36 @@ ModelPredictor::Pose ModelPredictor::make_pose(const SE3& T_world_cam, float min
 }
 
 Status ModelPredictor::predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index,
-                               float tracking_min_confidence) {
+                               float tracking_min_confidence, IndexMapDraw index) {
   // In 64 bits: frame_index - window may be below INT32_MIN.
   const int64_t oldest =
       options_.active_window_frames == 0 ? INT32_MIN : static_cast<int64_t>(frame_index) - options_.active_window_frames;
   return predict_seen(pool, T_world_cam, tracking_min_confidence,
-                      static_cast<int32_t>(std::max<int64_t>(oldest, INT32_MIN)), INT32_MAX);
+                      static_cast<int32_t>(std::max<int64_t>(oldest, INT32_MIN)), INT32_MAX, index);
 }
 
 Status ModelPredictor::predict_inactive(const SurfelPool& pool, const SE3& T_world_cam, int32_t seen_before,
                                         float tracking_min_confidence) {
-  return predict_seen(pool, T_world_cam, tracking_min_confidence, INT32_MIN, seen_before);
+  return predict_seen(pool, T_world_cam, tracking_min_confidence, INT32_MIN, seen_before, IndexMapDraw::kDraw);
 }
 
 Status ModelPredictor::predict_seen(const SurfelPool& pool, const SE3& T_world_cam, float tracking_min_confidence,
-                                    int32_t oldest, int32_t seen_before) {
+                                    int32_t oldest, int32_t seen_before, IndexMapDraw index) {
   if (!(tracking_min_confidence >= 0.0f) || !std::isfinite(tracking_min_confidence))
     return error(ErrorCode::kInvalidArgument, "ModelPredictor::predict: tracking_min_confidence " +
                                                   std::to_string(tracking_min_confidence) + " must be finite and >= 0");
   Clock::time_point t = Clock::now();
   const Clock::time_point start = t;
-  const Pose pose = make_pose(T_world_cam, tracking_min_confidence, oldest, seen_before);
+  Pose pose = make_pose(T_world_cam, tracking_min_confidence, oldest, seen_before);
+  pose.draw_index = index == IndexMapDraw::kDraw;
 
   counters_ = PredictionCounters{};
   maps_pose_ = T_world_cam;
-  index_map_.T_world_cam = T_world_cam;
-  clear_index_map();
+  index_at_maps_pose_ = pose.draw_index;
+  if (pose.draw_index) {
+    index_map_.T_world_cam = T_world_cam;
+    clear_index_map();
+  }
   clear_tracking_maps();
   timings_.clear_ms = lap_ms(t);
   render(pool, pose, counters_);
@@ -254,6 +259,13 @@ void ModelPredictor::render_index_map(const SurfelPool& pool, const SE3& T_world
   clear_index_map();
   PredictionCounters counters;
   render(pool, pose, counters);
+  index_at_maps_pose_ = false;
+}
+
+void ModelPredictor::draw_index_map_at_prediction(const SurfelPool& pool) {
+  if (index_at_maps_pose_) return;
+  render_index_map(pool, maps_pose_);
+  index_at_maps_pose_ = true;
 }
 
 void ModelPredictor::clear_index_map() {
@@ -425,6 +437,56 @@ void setup_discs(const Block& b, const float* __restrict wnx, const float* __res
   }
 }
 
+// The view a render draws, as six half-spaces a . p + d >= 0 over world points p (unit a, metres):
+// near and far clip planes and the four sides of the candidate box (Projection), which holds the
+// index grid as well. A surfel whose centre fails any of them is neither in the index map nor a
+// tracking candidate (transform_block). In double, and with a margin (kCullMarginM) so that float
+// rounding in transform_block never draws a surfel of a block judged unseen.
+struct BlockCull {
+  static constexpr double kCullMarginM = 1e-3;
+  double a[6][3];
+  double d[6];
+  // Whether some point of the block's box passes every half-space (the box's corner furthest along
+  // each normal); an empty box (no surfel) never does.
+  bool may_see(const SurfelPool::BlockBounds& b) const {
+    for (int p = 0; p < 6; ++p) {
+      double s = d[p] + kCullMarginM;
+      for (int k = 0; k < 3; ++k) s += a[p][k] * (a[p][k] >= 0 ? b.hi[k] : b.lo[k]);
+      if (s < 0) return false;  // also for -inf (an empty box); NaN passes
+    }
+    return true;
+  }
+};
+
+// The half-spaces of a render at camera = r world + t (r row-major) with projection k: in the camera
+// frame z >= near, z <= far, fx x + (cx - u_lo) z >= 0, (u_hi - cx) z - fx x >= 0 and likewise in
+// y, then a_world = r^T a_cam and d = a_cam . t + d_cam, normalised.
+BlockCull make_cull(const float* r, const float* t, const Projection& k) {
+  const double cam[6][4] = {
+      {0, 0, 1, -static_cast<double>(k.near_m)},
+      {0, 0, -1, static_cast<double>(k.far_m)},
+      {k.fx, 0, static_cast<double>(k.cx) - k.cand_u_lo, 0},
+      {-static_cast<double>(k.fx), 0, static_cast<double>(k.cand_u_hi) - k.cx, 0},
+      {0, k.fy, static_cast<double>(k.cy) - k.cand_v_lo, 0},
+      {0, -static_cast<double>(k.fy), static_cast<double>(k.cand_v_hi) - k.cy, 0},
+  };
+  BlockCull c;
+  for (int p = 0; p < 6; ++p) {
+    double a[3], norm2 = 0;
+    for (int j = 0; j < 3; ++j) {
+      a[j] = 0;
+      for (int i = 0; i < 3; ++i) a[j] += static_cast<double>(r[3 * i + j]) * cam[p][i];
+      norm2 += a[j] * a[j];
+    }
+    double d = cam[p][3];
+    for (int i = 0; i < 3; ++i) d += cam[p][i] * static_cast<double>(t[i]);
+    const double inv = 1.0 / std::sqrt(norm2);
+    for (int j = 0; j < 3; ++j) c.a[p][j] = a[j] * inv;
+    c.d[p] = d * inv;
+  }
+  return c;
+}
+
 }  // namespace
 
 void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, PredictionCounters& counters) {
@@ -453,6 +515,25 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, Prediction
   int32_t* ids = index_map_.id.data();
   float* depths = index_map_.depth.data();
   IndexSurface* surfaces = index_map_.surface.data();
+  const BlockCull cull = make_cull(pose.r, pose.t, k);
+  const bool use_bounds = pool.bounds_current();
+  const int64_t block_count = pool.blocks();
+  const SurfelPool::BlockBounds* bounds = pool.block_bounds();
+  const bool want_candidates = pose.min_confidence < kInf;
+  // The next block at or after `b` that may hold a surfel this render draws (block_count if none):
+  // its box meets the view and its times meet a window drawn (slam/surfel_pool.h: block bounds).
+  // Skipping the others changes nothing drawn: each of their surfels would be masked out anyway.
+  const auto next_block = [&](int64_t b) {
+    if (!use_bounds) return b;
+    for (; b < block_count; ++b) {
+      const SurfelPool::BlockBounds& bb = bounds[b];
+      const bool index_wanted = pose.draw_index && bb.seen_max >= pose.index_oldest;
+      const bool candidates_wanted =
+          want_candidates && bb.seen_max >= pose.oldest_frame && bb.seen_min < pose.seen_before;
+      if ((index_wanted || candidates_wanted) && cull.may_see(bb)) break;
+    }
+    return b;
+  };
   // Software pipeline over blocks: block j+1 is transformed and its index-map entries prefetched
   // before block j is scattered and rasterised. The index map (4.9 MB of depths and as much of ids
   // at 320x240, scale 4) does not fit in cache and the centres land all over it; this way the
@@ -478,7 +559,7 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, Prediction
     transform_block(pool.x() + begin, pool.y() + begin, pool.z() + begin, pool.nx() + begin, pool.ny() + begin,
                     pool.nz() + begin, pool.confidence() + begin, pool.last_seen() + begin, n, pose.r, pose.t, pose.c,
                     pose.min_confidence, pose.oldest_frame, pose.seen_before, k, b);
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < (pose.draw_index ? n : 0); ++i) {
       const int32_t p = b.pixel[i];
       if (p < 0) continue;
       __builtin_prefetch(depths + p, 1);
@@ -486,20 +567,24 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, Prediction
       __builtin_prefetch(surfaces + p, 1);
     }
   };
-  int64_t drawn = 0, candidates = 0, splatted = 0;
+  int64_t drawn = 0, candidates = 0, splatted = 0, visited = 0;
   float* key = level_[0].depth.data();
   const int image_width = level_[0].intrinsics.width;
-  if (size > 0) prepare(0, blocks[0]);
-  for (int64_t begin = 0, j = 0; begin < size; begin += kBlock, ++j) {
+  int64_t block = next_block(0), following = block_count;
+  if (block < block_count) prepare(block * kBlock, blocks[0]);
+  for (int64_t j = 0; block < block_count; ++j, block = following) {
+    const int64_t begin = block * kBlock;
     const int n = static_cast<int>(std::min<int64_t>(kBlock, size - begin));
-    if (begin + kBlock < size) prepare(begin + kBlock, blocks[(j + 1) & 1]);
+    following = next_block(block + 1);
+    if (following < block_count) prepare(following * kBlock, blocks[(j + 1) & 1]);
+    ++visited;
     const Block& b = blocks[j & 1];
     // (a) Index map: the nearest centre wins each index pixel (depth 0 = empty), with the copy of
     // its normal and confidence that fusion gates on (slam/index_map.h).
     const float *nx = pool.nx() + begin, *ny = pool.ny() + begin, *nz = pool.nz() + begin;
     const float* conf = pool.confidence() + begin;
     const int32_t* seen = pool.last_seen() + begin;
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < (pose.draw_index ? n : 0); ++i) {
       const int32_t p = b.pixel[i];
       if (p < 0 || seen[i] < pose.index_oldest) continue;
       ++drawn;
@@ -545,7 +630,9 @@ void ModelPredictor::render(const SurfelPool& pool, const Pose& pose, Prediction
       kernels::splat_disc(d, ray_x_.data(), ray_y_.data(), key, winner_.data(), image_width);
     }
   }
-  index_map_.surfels_drawn = drawn;
+  if (pose.draw_index) index_map_.surfels_drawn = drawn;
+  counters.blocks_visited = visited;
+  counters.blocks = block_count;
   counters.index_surfels = drawn;
   counters.tracking_candidates = candidates;
   counters.splatted_surfels = splatted;

@@ -130,6 +130,8 @@ struct PredictionOptions {
 
 // Totals of the last predict() call.
 struct PredictionCounters {
+  int64_t blocks = 0;          // blocks of the pool (SurfelPool::kBoundsBlock ids each)
+  int64_t blocks_visited = 0;  // of those, blocks whose bounds may reach the view and window drawn
   int64_t index_surfels = 0;     // surfels whose centre landed in the index grid (= IndexMap::surfels_drawn)
   int64_t tracking_candidates = 0;  // stable, in-window, front-facing, within the clip range and
                                     // centred within max_splat_radius_px of the image
@@ -157,6 +159,11 @@ struct PredictedLevel {
   Image<float> grad_x, grad_y;    // Sobel / 8, grey levels per pixel of this level; 0 in holes
 };
 
+// Whether predict() also draws the index map at the predicted pose (a pass over the surfels in
+// view): kSkip when nothing reads it before the next render_index_map() (SurfelSlam: fusion renders
+// its own at the tracked pose); draw_index_map_at_prediction() makes it later on demand.
+enum class IndexMapDraw : uint8_t { kDraw, kSkip };
+
 class ModelPredictor {
  public:
   // Allocates every buffer for a working image of working.width x working.height and `levels`
@@ -177,7 +184,8 @@ class ModelPredictor {
   // finite). Everything of the previous call is overwritten. Errors (kInvalidArgument): a bad
   // tracking_min_confidence. No heap allocation.
   Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index);
-  Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index, float tracking_min_confidence);
+  Status predict(const SurfelPool& pool, const SE3& T_world_cam, int32_t frame_index, float tracking_min_confidence,
+                 IndexMapDraw index = IndexMapDraw::kDraw);
   // The inactive model (ElasticFusion's loop closure): the same maps from the surfels last seen
   // before frame `seen_before` only, whatever their age. No heap allocation.
   Status predict_inactive(const SurfelPool& pool, const SE3& T_world_cam, int32_t seen_before,
@@ -191,8 +199,15 @@ class ModelPredictor {
   // active model only); INT32_MIN = every surfel.
   void render_index_map(const SurfelPool& pool, const SE3& T_world_cam, int32_t seen_since = INT32_MIN);
 
-  // The index map of the last predict() or render_index_map() (its T_world_cam says which pose; ids
-  // valid until the pool next removes a surfel).
+  // Draws the index map at the last predict()'s pose, every surfel, as predict() with kDraw would
+  // have (a no-op when it did): `pool` must be unchanged since that predict(). No heap allocation.
+  void draw_index_map_at_prediction(const SurfelPool& pool);
+  // Whether index_map() is the one at the last predict()'s pose.
+  bool index_map_at_prediction() const { return index_at_maps_pose_; }
+
+  // The index map of the last predict() with kDraw, draw_index_map_at_prediction() or
+  // render_index_map() (its T_world_cam says which pose; ids valid until the pool next removes a
+  // surfel).
   const IndexMap& index_map() const { return index_map_; }
   // The predicted maps as the tracker's reference pyramid (valid until the next predict()); every
   // level has intensity and gradient views.
@@ -218,7 +233,7 @@ class ModelPredictor {
   struct Pose;  // the float camera transform of one render (model_prediction.cpp)
   static Pose make_pose(const SE3& T_world_cam, float min_confidence, int32_t oldest_frame, int32_t seen_before);
   Status predict_seen(const SurfelPool& pool, const SE3& T_world_cam, float tracking_min_confidence, int32_t oldest,
-                      int32_t seen_before);
+                      int32_t seen_before, IndexMapDraw index);
   void clear_index_map();
   void clear_tracking_maps();
   // Index map, and the discs of the tracking candidates (none when pose.min_confidence is infinite).
@@ -234,6 +249,7 @@ class ModelPredictor {
   PredictedLevel level_[kTrackerMaxLevels];
   IndexMap index_map_;
   SE3 maps_pose_;           // the pose of the last predict()
+  bool index_at_maps_pose_ = false;  // index_map_ was drawn at maps_pose_ from every surfel
   // level_[0].depth holds, while rendering, the visibility key z (1 + tie e^2 / r^2) of the disc
   // owning each pixel (+inf = none); resolve() replaces it by the depth.
   Image<int32_t> winner_;   // level 0: the surfel owning each pixel, -1 = none

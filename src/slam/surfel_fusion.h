@@ -66,6 +66,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include <Eigen/Core>
 
@@ -242,9 +243,8 @@ inline void average_into(SurfelPool& pool, int64_t id, const Sample& s) {
   const float c = pool.confidence()[id];
   const float inv = 1.0f / (c + s.weight);
   const float a = c * inv, b = s.weight * inv;
-  pool.x()[id] = a * pool.x()[id] + b * s.p.x();
-  pool.y()[id] = a * pool.y()[id] + b * s.p.y();
-  pool.z()[id] = a * pool.z()[id] + b * s.p.z();
+  const SurfelPool& in = pool;  // reads through the const columns (slam/surfel_pool.h: block bounds)
+  pool.set_position(id, a * in.x()[id] + b * s.p.x(), a * in.y()[id] + b * s.p.y(), a * in.z()[id] + b * s.p.z());
   Eigen::Vector3f n(a * pool.nx()[id] + b * s.n.x(), a * pool.ny()[id] + b * s.n.y(), a * pool.nz()[id] + b * s.n.z());
   const float len = n.norm();
   // One division and three products rather than three divisions (this runs for every fused pixel).
@@ -267,7 +267,7 @@ inline bool fuse_sample(SurfelPool& pool, int64_t id, const Sample& s, float max
   const bool average = s.radius <= max_radius_growth * pool.radius()[id];
   if (average) average_into(pool, id, s);
   pool.confidence()[id] += s.weight;
-  pool.last_seen()[id] = frame;
+  pool.set_last_seen(id, frame);
   return average;
 }
 
@@ -296,7 +296,8 @@ inline void merge_into(SurfelPool& pool, int64_t keep, int64_t other) {
                        pool.labels() + other * SurfelPool::kLabelBytesPerSurfel);
   pool.confidence()[keep] += s.weight;
   if (pool.init_time()[other] < pool.init_time()[keep]) pool.init_time()[keep] = pool.init_time()[other];
-  if (pool.last_seen()[other] > pool.last_seen()[keep]) pool.last_seen()[keep] = pool.last_seen()[other];
+  const int32_t* seen = std::as_const(pool).last_seen();
+  if (seen[other] > seen[keep]) pool.set_last_seen(keep, seen[other]);
 }
 
 }  // namespace fusion_math

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <new>
 #include <sstream>
 
@@ -11,6 +12,9 @@ namespace {
 constexpr std::size_t kAlign = 64;
 constexpr int64_t kMaxCapacity = 100'000'000;
 std::size_t round_up(std::size_t n) { return (n + kAlign - 1) & ~(kAlign - 1); }
+std::size_t block_count(int64_t capacity) {
+  return static_cast<std::size_t>((capacity + SurfelPool::kBoundsBlock - 1) / SurfelPool::kBoundsBlock);
+}
 }  // namespace
 
 const opt::Table<SurfelPoolOptions>& SurfelPoolOptions::table() {
@@ -40,7 +44,8 @@ void SurfelPool::AlignedFree::operator()(unsigned char* p) const { ::operator de
 
 std::size_t SurfelPool::bytes_for(int64_t capacity) {
   const auto n = static_cast<std::size_t>(capacity > 0 ? capacity : 0);
-  return 8 * round_up(n * sizeof(float)) + 3 * round_up(n * sizeof(uint32_t)) + round_up(n * kLabelBytesPerSurfel);
+  return 8 * round_up(n * sizeof(float)) + 3 * round_up(n * sizeof(uint32_t)) + round_up(n * kLabelBytesPerSurfel) +
+         block_count(capacity > 0 ? capacity : 0) * sizeof(BlockBounds);
 }
 
 Result<SurfelPool> SurfelPool::create(const SurfelPoolOptions& options) {
@@ -49,10 +54,14 @@ Result<SurfelPool> SurfelPool::create(const SurfelPoolOptions& options) {
   const std::size_t f = round_up(n * sizeof(float));
   const std::size_t u = round_up(n * sizeof(uint32_t));
   const std::size_t l = round_up(n * kLabelBytesPerSurfel);
+  const std::size_t blocks = block_count(options.capacity);
   const std::size_t total = bytes_for(options.capacity);
+  const std::size_t columns = total - blocks * sizeof(BlockBounds);
   SurfelPool pool;
   pool.options_ = options;
-  unsigned char* block = new (std::align_val_t(kAlign), std::nothrow) unsigned char[total];
+  pool.bounds_.reset(new (std::nothrow) BlockBounds[blocks]);
+  unsigned char* block =
+      pool.bounds_ ? new (std::align_val_t(kAlign), std::nothrow) unsigned char[columns] : nullptr;
   if (block == nullptr)
     return error(ErrorCode::kResourceExhausted, "surfel pool: cannot allocate " + std::to_string(total) +
                                                     " bytes for " + std::to_string(options.capacity) + " surfels");
@@ -61,7 +70,8 @@ Result<SurfelPool> SurfelPool::create(const SurfelPoolOptions& options) {
   // Touch every page now: the pool is resident from start-up, as the memory plan says, instead of
   // growing with the map (a board short of memory fails here, not an hour into a run), and the
   // process's resident memory stays flat while mapping. About 20 ms for the default 60 MB.
-  std::memset(block, 0, total);
+  std::memset(block, 0, columns);
+  for (std::size_t b = 0; b < blocks; ++b) pool.reset_bounds(static_cast<int64_t>(b));
   unsigned char* p = block;
   auto take = [&p](std::size_t bytes) { unsigned char* q = p; p += bytes; return q; };
   pool.x_ = reinterpret_cast<float*>(take(f));
@@ -98,6 +108,8 @@ int64_t SurfelPool::append(float px, float py, float pz, float pnx, float pny, f
   init_time_[i] = frame;
   last_seen_[i] = frame;
   std::memset(labels_ + i * kLabelBytesPerSurfel, 0, kLabelBytesPerSurfel);
+  if (i % kBoundsBlock == 0) reset_bounds(i / kBoundsBlock);  // the block's surfels are all new
+  grow_bounds(i);
   ++counters_.created;
   return i;
 }
@@ -115,6 +127,22 @@ void SurfelPool::copy_surfel(int64_t from, int64_t to) {
   init_time_[to] = init_time_[from];
   last_seen_[to] = last_seen_[from];
   std::memcpy(labels_ + to * kLabelBytesPerSurfel, labels_ + from * kLabelBytesPerSurfel, kLabelBytesPerSurfel);
+  grow_bounds(to);
+}
+
+void SurfelPool::reset_bounds(int64_t block) {
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  bounds_[static_cast<std::size_t>(block)] =
+      BlockBounds{{kInf, kInf, kInf}, {-kInf, -kInf, -kInf}, std::numeric_limits<int32_t>::max(),
+                  std::numeric_limits<int32_t>::min()};
+}
+
+void SurfelPool::refresh_bounds() {
+  if (bounds_current_) return;
+  for (int64_t b = 0; b < blocks(); ++b) reset_bounds(b);
+  for (int64_t i = 0; i < size_; ++i) grow_bounds(i);
+  bounds_current_ = true;
+  ++bounds_refreshes_;
 }
 
 namespace {
@@ -142,6 +170,8 @@ void SurfelPool::permute(const int32_t* old_of_new, unsigned char* scratch) {
   for (void* c : columns) gather_word(static_cast<unsigned char*>(c), 4, 0, old_of_new, size_, scratch);
   for (std::size_t w = 0; w < kLabelBytesPerSurfel; w += 4)
     gather_word(labels_, kLabelBytesPerSurfel, w, old_of_new, size_, scratch);
+  bounds_current_ = false;  // every block has new members
+  refresh_bounds();
 }
 
 void SurfelPool::remove(int64_t id) {
@@ -166,6 +196,10 @@ int64_t SurfelPool::remove_flagged(const uint8_t* flags) {
   }
   const int64_t removed = size_ - out;
   size_ = out;
+  if (removed > 0) {
+    bounds_current_ = false;  // surfels moved down into other blocks: the bounds are recomputed
+    refresh_bounds();
+  }
   counters_.removed += static_cast<uint64_t>(removed);
   return removed;
 }
@@ -228,6 +262,8 @@ Status SurfelPool::set_restored(int64_t size, const SurfelPoolCounters& counters
                                                   " (mapping.surfel_capacity must be at least the checkpoint's)");
   size_ = size;
   counters_ = counters;
+  bounds_current_ = false;  // the columns were written by the caller
+  refresh_bounds();
   return Status::success();
 }
 

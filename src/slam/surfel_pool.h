@@ -32,6 +32,17 @@
 // 7-Scenes (docs/results.md): a 100,000 or 20,000-surfel pool tracks all 1000 frames (ATE 3.7 and
 // 4.0 cm) where refusing new surfels once full lost 606 and 630 frames (68 and 64 cm).
 //
+// Block bounds (for culling): for every run of kBoundsBlock consecutive ids, a box holding the
+// centres of its surfels and the range of their last_seen. Renderers (slam/model_prediction.h) skip
+// a block whose box is outside the view or whose times are outside the window they draw, so that a
+// frame's cost follows what is in view, not the size of the map. The bounds are conservative: a box
+// may be larger than its surfels (removals do not shrink it; the next refresh does), never smaller.
+// They are kept current by every writer of positions and times that goes through the pool
+// (append, remove, set_position, set_last_seen, permute, remove_flagged); taking a mutable x(), y(),
+// z() or last_seen() column marks them stale as a whole (the caller may write anything), and
+// refresh_bounds() then recomputes them (one pass over the pool). Stale bounds are never used:
+// renderers then visit every block.
+//
 // Memory: create() allocates everything; no other member allocates. Threads: not synchronised.
 #pragma once
 
@@ -72,6 +83,17 @@ class SurfelPool {
   static constexpr std::size_t kBytesPerSurfel =
       8 * sizeof(float) + sizeof(uint32_t) + 2 * sizeof(int32_t) + kLabelBytesPerSurfel;  // 60
 
+  // Ids per block of the block bounds (a renderer's block of work, slam/model_prediction.cpp).
+  static constexpr int kBoundsBlock = 256;
+  // One block's bounds: lo/hi of the centres (metres, world), seen_min/seen_max of last_seen
+  // (frames). A block no surfel has entered since its reset has lo > hi (an empty box).
+  struct BlockBounds {
+    float lo[3];
+    float hi[3];
+    int32_t seen_min;
+    int32_t seen_max;
+  };
+
   static Result<SurfelPool> create(const SurfelPoolOptions& options = {});
   // Bytes create() allocates for `capacity` surfels (every column rounded up to 64 bytes).
   static std::size_t bytes_for(int64_t capacity);
@@ -86,10 +108,12 @@ class SurfelPool {
   // Bytes allocated by create() (all columns).
   std::size_t bytes() const { return bytes_; }
 
-  // Columns (pointers stay valid for the pool's lifetime).
-  float* x() { return x_; }
-  float* y() { return y_; }
-  float* z() { return z_; }
+  // Columns (pointers stay valid for the pool's lifetime). Taking a mutable x(), y(), z() or
+  // last_seen() marks the block bounds stale (see above): write positions and times on hot paths
+  // with set_position() / set_last_seen() instead, and read through a const pool.
+  float* x() { bounds_current_ = false; return x_; }
+  float* y() { bounds_current_ = false; return y_; }
+  float* z() { bounds_current_ = false; return z_; }
   float* nx() { return nx_; }
   float* ny() { return ny_; }
   float* nz() { return nz_; }
@@ -97,7 +121,7 @@ class SurfelPool {
   float* confidence() { return confidence_; }
   uint32_t* color() { return color_; }
   int32_t* init_time() { return init_time_; }
-  int32_t* last_seen() { return last_seen_; }
+  int32_t* last_seen() { bounds_current_ = false; return last_seen_; }
   uint8_t* labels() { return labels_; }  // kLabelBytesPerSurfel per surfel, surfel i at i * 16
   const float* x() const { return x_; }
   const float* y() const { return y_; }
@@ -111,6 +135,27 @@ class SurfelPool {
   const int32_t* init_time() const { return init_time_; }
   const int32_t* last_seen() const { return last_seen_; }
   const uint8_t* labels() const { return labels_; }
+
+  // Writes surfel `id`'s centre (metres, world) / last_seen (frame), growing its block's bounds.
+  void set_position(int64_t id, float px, float py, float pz) {
+    x_[id] = px;
+    y_[id] = py;
+    z_[id] = pz;
+    grow_bounds(id);
+  }
+  void set_last_seen(int64_t id, int32_t frame) {
+    last_seen_[id] = frame;
+    grow_bounds(id);
+  }
+
+  // Block bounds of ids [b kBoundsBlock, (b + 1) kBoundsBlock) for b < blocks(); meaningful only
+  // while bounds_current(). refresh_bounds() recomputes every block of a stale pool (a pass over the
+  // positions and times; counted in bounds_refreshes()) and does nothing to a current one.
+  int64_t blocks() const { return (size_ + kBoundsBlock - 1) / kBoundsBlock; }
+  bool bounds_current() const { return bounds_current_; }
+  const BlockBounds* block_bounds() const { return bounds_.get(); }
+  void refresh_bounds();
+  uint64_t bounds_refreshes() const { return bounds_refreshes_; }
 
   // Makes room for up to `wanted` new surfels at frame `frame` by the full-pool policy above
   // (evicting when needed) and returns how many may be appended now (<= wanted). Counts evictions;
@@ -147,6 +192,18 @@ class SurfelPool {
  private:
   SurfelPool() = default;
   void evict(int64_t id);
+  // Widens the bounds of id's block to its centre and last_seen (a block's first id resets them).
+  void grow_bounds(int64_t id) {
+    BlockBounds& b = bounds_[static_cast<std::size_t>(id / kBoundsBlock)];
+    const float p[3] = {x_[id], y_[id], z_[id]};
+    for (int a = 0; a < 3; ++a) {
+      b.lo[a] = p[a] < b.lo[a] ? p[a] : b.lo[a];
+      b.hi[a] = p[a] > b.hi[a] ? p[a] : b.hi[a];
+    }
+    b.seen_min = last_seen_[id] < b.seen_min ? last_seen_[id] : b.seen_min;
+    b.seen_max = last_seen_[id] > b.seen_max ? last_seen_[id] : b.seen_max;
+  }
+  void reset_bounds(int64_t block);
 
   struct AlignedFree {
     void operator()(unsigned char* p) const;
@@ -160,6 +217,9 @@ class SurfelPool {
   uint32_t* color_ = nullptr;
   int32_t *init_time_ = nullptr, *last_seen_ = nullptr;
   uint8_t* labels_ = nullptr;
+  std::unique_ptr<BlockBounds[]> bounds_;  // ceil(capacity / kBoundsBlock)
+  bool bounds_current_ = true;
+  uint64_t bounds_refreshes_ = 0;
   SurfelPoolCounters counters_;
 };
 

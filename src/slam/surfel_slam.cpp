@@ -257,6 +257,8 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     // Fuse through an index map at the tracked pose (or the last prediction's, at the last good
     // pose), then predict at the new pose.
     t0 = Clock::now();
+    // Bounds stale only after a writer took a mutable column (slam/surfel_pool.h); a no-op otherwise.
+    pool_.refresh_bounds();
     if (options_.associate_at_tracked_pose && fused_frames_ > 0) {
       const int32_t window = options_.prediction.active_window_frames;
       predictor_.render_index_map(pool_, T_world_cur,
@@ -299,7 +301,12 @@ Status SurfelSlam::track_fuse_predict(const Frame& frame, const Preprocessor& pr
     t0 = Clock::now();
     predicted_frame_ = frame_index;
     predicted_min_confidence_ = tracking_min_confidence();
-    EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_world_cur, frame_index, predicted_min_confidence_));
+    pool_.refresh_bounds();
+    // The next frame's fusion renders its own index map at its tracked pose: this one's is drawn
+    // only on demand (predictor_with_index_map(), for the labels).
+    EF_RETURN_IF_ERROR(predictor_.predict(pool_, T_world_cur, frame_index, predicted_min_confidence_,
+                                          options_.associate_at_tracked_pose ? IndexMapDraw::kSkip
+                                                                             : IndexMapDraw::kDraw));
     prediction_stale_ = false;
     result->timings.predict_ms = ms_since(t0);
   }
@@ -391,8 +398,9 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
       if (y < ids.height && x < ids.width) {
         const int32_t id = ids(x, y);
         if (id >= 0 && id < pool_.size()) {
-          const Eigen::Vector3f v(pool_.x()[id], pool_.y()[id], pool_.z()[id]);
-          graph_->add_constraint(v, pool_.last_seen()[id], v);
+          const SurfelPool& pool = pool_;  // const reads keep the block bounds current
+          const Eigen::Vector3f v(pool.x()[id], pool.y()[id], pool.z()[id]);
+          graph_->add_constraint(v, pool.last_seen()[id], v);
         }
       }
     }
@@ -402,6 +410,7 @@ Status SurfelSlam::check_loop(const Preprocessor& pre, int32_t frame_index, Slam
     return Status::success();
   }
   graph_->apply(pool_);
+  pool_.refresh_bounds();  // every surfel may have moved
   *T_world_cur = graph_->apply_pose(*T_world_cur, frame_index);
   for (int32_t k = 0; k < ferns_.size(); ++k) ferns_.set_pose(k, graph_->apply_pose(ferns_.pose(k), ferns_.frame(k)));
   history_.deform(*graph_);

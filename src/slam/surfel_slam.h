@@ -231,6 +231,13 @@ class SurfelSlam {
   int64_t lost_frames() const { return lost_frames_; }
   const SurfelSlamOptions& options() const { return options_; }
   const ModelPredictor& predictor() const { return predictor_; }
+  // The predictor with its index map drawn at the last prediction's pose from every surfel (the map
+  // as it is after the last processed frame, seen from that frame's pose), drawing it now when the
+  // prediction left it out. For label fusion and rendering between process() calls.
+  const ModelPredictor& predictor_with_index_map() {
+    predictor_.draw_index_map_at_prediction(pool_);
+    return predictor_;
+  }
   const KeyframeFerns& keyframes() const { return ferns_; }
   KeyframeFerns& keyframes_for_restore() { return ferns_; }
   // Every frame's pose (the last options.pose_history frames), corrected by each loop closure;

@@ -867,5 +867,74 @@ TEST(ModelPredict, EachCallStartsFromScratch) {
   EXPECT_EQ(p.depth()(40, 30), 0.0f);
 }
 
+// The renders skip pool blocks by their bounds (slam/surfel_pool.h); what they draw must be exactly
+// what a pass over every block draws. Compared with the same pool whose bounds are stale (a mutable
+// column taken), which the renders then do not use: at poses that see all, part and none of a map
+// with surfaces behind the camera, off to the side and outside the active window.
+TEST(ModelPredict, BlockCullingDrawsExactlyWhatAFullPassDraws) {
+  const Intrinsics K = small_camera();
+  const SE3 T_a = some_pose();
+  Vector6d turn;
+  turn << 0, 0, 0, 0, M_PI, 0;  // half a turn: the view behind T_a
+  Vector6d side;
+  side << 0.2, 0, 0, 0, 0.6, 0;  // part of T_a's view
+  SurfelPool pool = make_pool();
+  fill_plane(pool, K, T_a, tilted_plane(1.5), 20.0f);
+  fill_plane(pool, K, T_a * SE3::exp(turn), tilted_plane(2.0), 20.0f);
+  const std::vector<int64_t> old = fill_plane(pool, K, T_a, tilted_plane(2.5), 20.0f);
+  for (int64_t id : old) pool.set_last_seen(id, -1000);  // outside the window at frame 0
+  ASSERT_TRUE(pool.bounds_current());
+  const auto state = [](const ModelPredictor& p) {
+    std::vector<float> v;
+    const IndexMap& m = p.index_map();
+    for (std::size_t k = 0; k < m.id.size(); ++k) v.push_back(static_cast<float>(m.id.data()[k])), v.push_back(m.depth.data()[k]);
+    const ImageView<const int32_t> w = p.surfel_ids();
+    for (int y = 0; y < w.height; ++y)
+      for (int x = 0; x < w.width; ++x) v.push_back(static_cast<float>(w(x, y)));
+    for (int l = 0; l < p.levels(); ++l) {
+      const PredictedLevel& lv = p.level(l);
+      for (std::size_t k = 0; k < lv.depth.size(); ++k)
+        v.insert(v.end(), {lv.depth.data()[k], lv.vertex.data()[k].x(), lv.normal.data()[k].z(), lv.intensity.data()[k],
+                           lv.grad_x.data()[k]});
+    }
+    return v;
+  };
+  const SE3 poses[] = {T_a, T_a * SE3::exp(side), T_a * SE3::exp(turn), SE3::exp(Vector6d::Constant(5.0))};
+  int64_t skipped = 0;
+  for (const SE3& T : poses) {
+    auto culled = make_predictor(K);
+    ASSERT_TRUE(culled.predict(pool, T, 0).ok());
+    EXPECT_EQ(culled.counters().blocks, pool.blocks());
+    skipped += culled.counters().blocks - culled.counters().blocks_visited;
+    auto skipless = make_predictor(K);
+    (void)pool.x();  // stale: the renders visit every block
+    ASSERT_TRUE(skipless.predict(pool, T, 0).ok());
+    EXPECT_EQ(skipless.counters().blocks_visited, pool.blocks());
+    EXPECT_EQ(state(culled), state(skipless));
+    EXPECT_EQ(culled.counters().valid_pixels, skipless.counters().valid_pixels);
+    EXPECT_EQ(culled.counters().index_surfels, skipless.counters().index_surfels);
+    pool.refresh_bounds();
+    // The index map alone, and the prediction without it drawn later on demand.
+    culled.render_index_map(pool, T);
+    (void)pool.x();
+    skipless.render_index_map(pool, T);
+    pool.refresh_bounds();
+    EXPECT_EQ(state(culled), state(skipless));
+    auto lazy = make_predictor(K);
+    ASSERT_TRUE(lazy.predict(pool, T, 0, 10.0f, IndexMapDraw::kSkip).ok());
+    EXPECT_FALSE(lazy.index_map_at_prediction());
+    EXPECT_EQ(lazy.index_map().surfels_drawn, 0);
+    lazy.draw_index_map_at_prediction(pool);
+    EXPECT_TRUE(lazy.index_map_at_prediction());
+    auto eager = make_predictor(K);
+    ASSERT_TRUE(eager.predict(pool, T, 0, 10.0f).ok());
+    EXPECT_TRUE(eager.index_map_at_prediction());
+    EXPECT_EQ(state(lazy), state(eager));
+    EXPECT_EQ(lazy.index_map().surfels_drawn, eager.index_map().surfels_drawn);
+  }
+  // The view behind, the far pose and the out-of-window plane leave blocks out.
+  EXPECT_GT(skipped, 2 * pool.blocks());
+}
+
 }  // namespace
 }  // namespace ef::slam

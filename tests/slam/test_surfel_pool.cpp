@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <random>
 #include <vector>
 
 #include "slam/surfel_pool.h"
@@ -99,7 +100,11 @@ TEST(SurfelPool, CapacityValidation) {
   EXPECT_EQ(SurfelPool::kBytesPerSurfel, 60u);
   SurfelPool big = make_pool(100'000);
   EXPECT_GE(big.bytes(), 100'000 * SurfelPool::kBytesPerSurfel);
-  EXPECT_LT(big.bytes(), 100'000 * SurfelPool::kBytesPerSurfel + 12 * 64);  // columns padded to 64 bytes only
+  // Columns padded to 64 bytes only, plus the block bounds (one per kBoundsBlock surfels).
+  const std::size_t bounds = (100'000 + SurfelPool::kBoundsBlock - 1) / SurfelPool::kBoundsBlock *
+                             sizeof(SurfelPool::BlockBounds);
+  EXPECT_GE(big.bytes(), 100'000 * SurfelPool::kBytesPerSurfel + bounds);
+  EXPECT_LT(big.bytes(), 100'000 * SurfelPool::kBytesPerSurfel + bounds + 12 * 64);
   EXPECT_NE(SurfelPoolOptions{}.describe().find("capacity"), std::string::npos);
   // Columns are 64-byte aligned.
   EXPECT_EQ(reinterpret_cast<uintptr_t>(big.x()) % 64, 0u);
@@ -309,6 +314,86 @@ TEST(SurfelPool, ReserveTreatsVeryOldSurfelsAsCandidates) {
   EXPECT_EQ(pool.reserve_for_new(2, 100'000, 10.0f), 2);
   ASSERT_EQ(pool.size(), 2);
   EXPECT_EQ(tags(pool), (std::vector<int>{0, 3}));
+}
+
+// Every block's box holds the centres of its surfels and its time range their last_seen, through
+// append, set_position, set_last_seen, remove (a surfel moved into another block), permute,
+// remove_flagged and a refresh after a mutable column was taken.
+::testing::AssertionResult bounds_hold(const SurfelPool& pool) {
+  if (!pool.bounds_current()) return ::testing::AssertionFailure() << "bounds stale";
+  const SurfelPool& p = pool;
+  for (int64_t i = 0; i < p.size(); ++i) {
+    const SurfelPool::BlockBounds& b = p.block_bounds()[i / SurfelPool::kBoundsBlock];
+    const float c[3] = {p.x()[i], p.y()[i], p.z()[i]};
+    for (int a = 0; a < 3; ++a)
+      if (!(b.lo[a] <= c[a] && c[a] <= b.hi[a]))
+        return ::testing::AssertionFailure() << "surfel " << i << " axis " << a << " at " << c[a] << " outside ["
+                                             << b.lo[a] << ", " << b.hi[a] << "]";
+    if (!(b.seen_min <= p.last_seen()[i] && p.last_seen()[i] <= b.seen_max))
+      return ::testing::AssertionFailure() << "surfel " << i << " last_seen " << p.last_seen()[i] << " outside ["
+                                           << b.seen_min << ", " << b.seen_max << "]";
+  }
+  return ::testing::AssertionSuccess();
+}
+
+TEST(SurfelPool, BlockBoundsHoldTheirSurfelsThroughEveryWriter) {
+  SurfelPool pool = make_pool(5000);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> pos(-3.0f, 3.0f);
+  for (int i = 0; i < 3000; ++i)
+    pool.append(pos(rng), pos(rng), pos(rng), 0, 0, 1, 0.01f, 1.0f, 0, static_cast<int32_t>(i / 100));
+  EXPECT_TRUE(bounds_hold(pool));
+  EXPECT_EQ(pool.blocks(), (3000 + SurfelPool::kBoundsBlock - 1) / SurfelPool::kBoundsBlock);
+  // The first block's box is tight after appends: the extremes of its surfels.
+  {
+    const SurfelPool& p = pool;
+    float lo = p.x()[0], hi = p.x()[0];
+    for (int i = 0; i < SurfelPool::kBoundsBlock; ++i) lo = std::min(lo, p.x()[i]), hi = std::max(hi, p.x()[i]);
+    EXPECT_EQ(p.block_bounds()[0].lo[0], lo);
+    EXPECT_EQ(p.block_bounds()[0].hi[0], hi);
+    EXPECT_EQ(p.block_bounds()[0].seen_min, 0);
+    EXPECT_EQ(p.block_bounds()[0].seen_max, 2);
+  }
+  std::uniform_int_distribution<int64_t> any(0, 2999);
+  for (int k = 0; k < 500; ++k) {
+    const int64_t id = any(rng) % pool.size();
+    switch (k % 4) {
+      case 0: pool.set_position(id, pos(rng) * 3, pos(rng) * 3, pos(rng) * 3); break;
+      case 1: pool.set_last_seen(id, 1000 + k); break;
+      case 2: pool.remove(id); break;
+      default: pool.append(pos(rng), pos(rng), pos(rng), 0, 0, 1, 0.01f, 1.0f, 0, 2000 + k); break;
+    }
+  }
+  EXPECT_TRUE(bounds_hold(pool));
+  const uint64_t refreshes = pool.bounds_refreshes();
+
+  // permute: every block has new members.
+  std::vector<int32_t> order(static_cast<std::size_t>(pool.size()));
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int32_t>(order.size() - 1 - i);
+  std::vector<unsigned char> scratch(4 * order.size());
+  pool.permute(order.data(), scratch.data());
+  EXPECT_TRUE(bounds_hold(pool));
+  std::vector<uint8_t> flags(static_cast<std::size_t>(pool.size()), 0);
+  for (std::size_t i = 0; i < flags.size(); i += 3) flags[i] = 1;
+  pool.remove_flagged(flags.data());
+  EXPECT_TRUE(bounds_hold(pool));
+  EXPECT_EQ(pool.bounds_refreshes(), refreshes + 2);
+
+  // A mutable column makes them stale (the caller may write anything); refresh recomputes them.
+  float* x = pool.x();
+  x[7] = 100.0f;
+  EXPECT_FALSE(pool.bounds_current());
+  EXPECT_FALSE(bounds_hold(pool));
+  pool.refresh_bounds();
+  EXPECT_TRUE(bounds_hold(pool));
+  EXPECT_EQ(pool.block_bounds()[0].hi[0], 100.0f);
+  EXPECT_EQ(pool.bounds_refreshes(), refreshes + 3);
+  pool.refresh_bounds();  // current: nothing to do
+  EXPECT_EQ(pool.bounds_refreshes(), refreshes + 3);
+  // Reading through a const pool leaves them current.
+  const SurfelPool& read = pool;
+  EXPECT_EQ(read.x()[7], 100.0f);
+  EXPECT_TRUE(pool.bounds_current());
 }
 
 }  // namespace
