@@ -1,7 +1,10 @@
 // The dense CRF over a surfel map (issue 6 goal: 10 mean-field iterations over 500,000 surfels in at
 // most 1 s on one core; the paper: 20.3 s).
 //   bench_crf [--surfels N] [--reps R] [--iterations K] [--max-vertices V] [--sort 0|1] [--calibration S]
-//             [--source URI] [--dump-labels FILE]
+//             [--source URI | --checkpoint RUN_DIR] [--dump-labels FILE]
+// --checkpoint: the map of a finished `edgefusion run` instead (its checkpoint.efs, as `edgefusion
+// export` reads it): a real map built by SurfelSlam with the labels it fused, e.g. the 7-Scenes
+// kitchen's (issue 31); --surfels and --source are then unused.
 // The map: frames of the synthetic source (default synthetic:?size=320x240&noise=0, the built-in
 // living room on its hand-held loop, noise-free: a fused map's colours and normals are averages over
 // many frames, which single noisy frames are not) back-projected with their exact poses, one surfel
@@ -31,6 +34,7 @@
 #include "core/frame.h"
 #include "io/frame_source.h"
 #include "kernels/crf_rows.h"
+#include "pipeline/checkpoint.h"
 #include "platform/cpu/cpu_features.h"
 #include "semantic/dense_crf.h"
 #include "semantic/label_store.h"
@@ -44,6 +48,10 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// The CRF runs over `map` and their report (below main).
+int run_crf(ef::slam::SurfelPool& map, int reps, int iterations, int64_t max_vertices, int calibration,
+            const std::string& dump_path);
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -54,7 +62,7 @@ int main(int argc, char** argv) {
   bool sort_map = false;
   int calibration = semantic::DenseCrfOptions{}.calibration_samples;
   std::string uri = "synthetic:?size=320x240&noise=0";
-  std::string dump_path;
+  std::string dump_path, checkpoint_dir;
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--surfels")) target = std::atoll(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--reps")) reps = std::atoi(argv[i + 1]);
@@ -64,10 +72,26 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--sort")) sort_map = std::atoi(argv[i + 1]) != 0;
     else if (!std::strcmp(argv[i], "--calibration")) calibration = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--dump-labels")) dump_path = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--checkpoint")) checkpoint_dir = argv[i + 1];
     else {
       std::fprintf(stderr, "unknown option %s\n", argv[i]);
       return 2;
     }
+  }
+  if (!checkpoint_dir.empty()) {
+    auto found = pipeline::find_checkpoint(checkpoint_dir);
+    if (!found.ok()) {
+      std::fprintf(stderr, "bench_crf: %s\n", to_string(found.error()).c_str());
+      return 2;
+    }
+    auto loaded = pipeline::load_checkpoint_pool(*found);
+    if (!loaded.ok()) {
+      std::fprintf(stderr, "bench_crf: %s\n", to_string(loaded.error()).c_str());
+      return 2;
+    }
+    std::printf("dense crf: the map of the run in %s: %lld surfels (frame %lld of its source)\n", checkpoint_dir.c_str(),
+                static_cast<long long>(loaded->size()), static_cast<long long>(found->meta.frames));
+    return run_crf(*loaded, reps, iterations, max_vertices, calibration, dump_path);
   }
   auto parsed = parse_source_uri(uri);
   if (!parsed.ok() || parsed->scheme != "synthetic") {
@@ -163,6 +187,15 @@ int main(int argc, char** argv) {
               "voxel, %.1f s to build); wanted %lld\n",
               static_cast<long long>(pool->size()), static_cast<long long>(frames_used), uri.c_str(), voxel * 1e3,
               map_s, static_cast<long long>(target));
+  return run_crf(*pool, reps, iterations, max_vertices, calibration, dump_path);
+}
+
+namespace {
+
+int run_crf(ef::slam::SurfelPool& map, int reps, int iterations, int64_t max_vertices, int calibration,
+            const std::string& dump_path) {
+  using namespace ef;
+  slam::SurfelPool* pool = &map;
   std::printf("cpu: %s; one thread; lattice rows: %s\n", cpu_features().describe().c_str(),
               kernels::crf_rows_selected());
 
@@ -249,3 +282,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+}  // namespace
