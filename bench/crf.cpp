@@ -1,10 +1,11 @@
 // The dense CRF over a surfel map (issue 6 goal: 10 mean-field iterations over 500,000 surfels in at
 // most 1 s on one core; the paper: 20.3 s).
 //   bench_crf [--surfels N] [--reps R] [--iterations K] [--max-vertices V] [--sort 0|1] [--calibration S]
-//             [--source URI | --checkpoint RUN_DIR] [--dump-labels FILE]
+//             [--source URI | --checkpoint RUN_DIR] [--min-confidence C] [--dump-labels FILE]
 // --checkpoint: the map of a finished `edgefusion run` instead (its checkpoint.efs, as `edgefusion
 // export` reads it): a real map built by SurfelSlam with the labels it fused, e.g. the 7-Scenes
-// kitchen's (issue 31); --surfels and --source are then unused.
+// kitchen's (issue 31); --surfels and --source are then unused. --min-confidence: DenseCrfOptions::
+// min_confidence (default 10: the stable surfels; the sampled map's surfels all have 20).
 // The map: frames of the synthetic source (default synthetic:?size=320x240&noise=0, the built-in
 // living room on its hand-held loop, noise-free: a fused map's colours and normals are averages over
 // many frames, which single noisy frames are not) back-projected with their exact poses, one surfel
@@ -50,7 +51,7 @@ double median(std::vector<double> v) {
 
 // The CRF runs over `map` and their report (below main).
 int run_crf(ef::slam::SurfelPool& map, int reps, int iterations, int64_t max_vertices, int calibration,
-            const std::string& dump_path);
+            float min_confidence, const std::string& dump_path);
 
 }  // namespace
 
@@ -63,6 +64,7 @@ int main(int argc, char** argv) {
   int calibration = semantic::DenseCrfOptions{}.calibration_samples;
   std::string uri = "synthetic:?size=320x240&noise=0";
   std::string dump_path, checkpoint_dir;
+  float min_confidence = semantic::DenseCrfOptions{}.min_confidence;  // DenseCrfOptions::min_confidence
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--surfels")) target = std::atoll(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--reps")) reps = std::atoi(argv[i + 1]);
@@ -73,6 +75,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--calibration")) calibration = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--dump-labels")) dump_path = argv[i + 1];
     else if (!std::strcmp(argv[i], "--checkpoint")) checkpoint_dir = argv[i + 1];
+    else if (!std::strcmp(argv[i], "--min-confidence")) min_confidence = static_cast<float>(std::atof(argv[i + 1]));
     else {
       std::fprintf(stderr, "unknown option %s\n", argv[i]);
       return 2;
@@ -91,7 +94,7 @@ int main(int argc, char** argv) {
     }
     std::printf("dense crf: the map of the run in %s: %lld surfels (frame %lld of its source)\n", checkpoint_dir.c_str(),
                 static_cast<long long>(loaded->size()), static_cast<long long>(found->meta.frames));
-    return run_crf(*loaded, reps, iterations, max_vertices, calibration, dump_path);
+    return run_crf(*loaded, reps, iterations, max_vertices, calibration, min_confidence, dump_path);
   }
   auto parsed = parse_source_uri(uri);
   if (!parsed.ok() || parsed->scheme != "synthetic") {
@@ -187,13 +190,13 @@ int main(int argc, char** argv) {
               "voxel, %.1f s to build); wanted %lld\n",
               static_cast<long long>(pool->size()), static_cast<long long>(frames_used), uri.c_str(), voxel * 1e3,
               map_s, static_cast<long long>(target));
-  return run_crf(*pool, reps, iterations, max_vertices, calibration, dump_path);
+  return run_crf(*pool, reps, iterations, max_vertices, calibration, min_confidence, dump_path);
 }
 
 namespace {
 
 int run_crf(ef::slam::SurfelPool& map, int reps, int iterations, int64_t max_vertices, int calibration,
-            const std::string& dump_path) {
+            float min_confidence, const std::string& dump_path) {
   using namespace ef;
   slam::SurfelPool* pool = &map;
   std::printf("cpu: %s; one thread; lattice rows: %s\n", cpu_features().describe().c_str(),
@@ -204,6 +207,7 @@ int run_crf(ef::slam::SurfelPool& map, int reps, int iterations, int64_t max_ver
   o.iterations = iterations;
   o.max_lattice_vertices = max_vertices;
   o.calibration_samples = calibration;
+  o.min_confidence = min_confidence;
   semantic::DenseCrfOptions one = o;  // the same with one iteration: the fixed part of a run
   one.iterations = 1;
   auto crf = semantic::DenseCrf::create(o);
@@ -245,10 +249,14 @@ int run_crf(ef::slam::SurfelPool& map, int reps, int iterations, int64_t max_ver
     changed += semantic::label_argmax(pool->labels() + i * semantic::kLabelBytes) !=
                semantic::label_argmax(labels.data() + i * semantic::kLabelBytes);
   const semantic::DenseCrfStats& last = k_iter.last;
-  std::printf("lattice vertices: bilateral %lld (%.3f per surfel), spatial %lld (%.3f per surfel); surfels left "
+  const double nodes = double(std::max<int64_t>(1, last.surfels - last.surfels_unconfident));
+  std::printf("nodes: %lld of %lld surfels (%lld below confidence %.1f)\n",
+              static_cast<long long>(last.surfels - last.surfels_unconfident), static_cast<long long>(last.surfels),
+              static_cast<long long>(last.surfels_unconfident), double(min_confidence));
+  std::printf("lattice vertices: bilateral %lld (%.3f per node), spatial %lld (%.3f per node); nodes left "
               "out %lld\n",
-              static_cast<long long>(last.bilateral_vertices), double(last.bilateral_vertices) / double(last.surfels),
-              static_cast<long long>(last.spatial_vertices), double(last.spatial_vertices) / double(last.surfels),
+              static_cast<long long>(last.bilateral_vertices), double(last.bilateral_vertices) / nodes,
+              static_cast<long long>(last.spatial_vertices), double(last.spatial_vertices) / nodes,
               static_cast<long long>(last.surfels_left_out));
   auto best = [](const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); };
   std::printf("median of %d runs (best in brackets):\n", std::max(reps, 1));

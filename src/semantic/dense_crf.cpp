@@ -87,6 +87,8 @@ const opt::Table<DenseCrfOptions>& DenseCrfOptions::table() {
   static const opt::Table<DenseCrfOptions> t = {
       {"iterations", "crf_iterations", "--crf-iterations", &DenseCrfOptions::iterations, "", opt::between(1, 100),
        "mean-field iterations per CRF run (the paper's 10)"},
+      {"min_confidence", "crf_min_confidence", "", &DenseCrfOptions::min_confidence, "fusion weight",
+       opt::between(0, 1e6), "surfels below take no part in the CRF (their labels as fused); 0 = every surfel"},
   };
   return t;
 }
@@ -120,7 +122,8 @@ std::string DenseCrfOptions::describe() const {
   std::ostringstream s;
   s << "bilateral theta " << bilateral_theta_position_m << " m / colour " << bilateral_theta_color << ", weight "
     << bilateral_weight << "; spatial theta " << spatial_theta_position_m << " m / normal " << spatial_theta_normal
-    << ", weight " << spatial_weight << "; " << iterations << " iterations; capacity " << capacity
+    << ", weight " << spatial_weight << "; " << iterations << " iterations; surfels with confidence >= "
+    << min_confidence << "; capacity " << capacity
     << " surfels, " << lattice_vertices() << " lattice vertices per kernel"
     << (max_lattice_vertices == 0 ? " (derived)" : "") << "; " << calibration_samples << " calibration samples";
   return s.str();
@@ -157,21 +160,36 @@ std::size_t DenseCrf::bytes() const {
 
 Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
   const auto t_start = std::chrono::steady_clock::now();
-  const int64_t n = pool.size();
+  const slam::SurfelPool& read = pool;  // const columns (slam/surfel_pool.h: block bounds stay current)
+  const int64_t size = pool.size();
   DenseCrfStats stats;
-  stats.surfels = n;
+  stats.surfels = size;
+  // The nodes: surfels at or above min_confidence (n of them; every surfel at the default 0).
+  const float* confidence = read.confidence();
+  const float min_confidence = options_.min_confidence;
+  const auto node = [&](int64_t i) { return !(confidence[i] < min_confidence); };
+  int64_t n = 0;
+  for (int64_t i = 0; i < size; ++i) n += node(i) ? 1 : 0;
+  stats.surfels_unconfident = size - n;
   if (n > options_.capacity)
     return error(ErrorCode::kResourceExhausted, "dense crf: the pool holds " + std::to_string(n) +
-                                                    " surfels, more than the CRF's capacity " +
+                                                    " surfels with confidence >= " + std::to_string(min_confidence) +
+                                                    ", more than the CRF's capacity " +
                                                     std::to_string(options_.capacity) + " (DenseCrfOptions::capacity)");
-  if (n == 0) return stats;
+  if (n == 0) {
+    stats.total_ms = ms_since(t_start);
+    return stats;
+  }
 
-  const float *px = pool.x(), *py = pool.y(), *pz = pool.z();
-  const float *nx = pool.nx(), *ny = pool.ny(), *nz = pool.nz();
-  const uint32_t* color = pool.color();
-  // The map's centre (middle of the bounding box) keeps lattice keys small.
-  float lo[3] = {px[0], py[0], pz[0]}, hi[3] = {px[0], py[0], pz[0]};
-  for (int64_t i = 0; i < n; ++i) {
+  const float *px = read.x(), *py = read.y(), *pz = read.z();
+  const float *nx = read.nx(), *ny = read.ny(), *nz = read.nz();
+  const uint32_t* color = read.color();
+  // The map's centre (middle of the nodes' bounding box) keeps lattice keys small.
+  int64_t first = 0;
+  while (!node(first)) ++first;
+  float lo[3] = {px[first], py[first], pz[first]}, hi[3] = {px[first], py[first], pz[first]};
+  for (int64_t i = 0; i < size; ++i) {
+    if (!node(i)) continue;
     const float p[3] = {px[i], py[i], pz[i]};
     if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]) || !std::isfinite(nx[i]) ||
         !std::isfinite(ny[i]) || !std::isfinite(nz[i]))
@@ -214,9 +232,11 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
     uint32_t* counts = reinterpret_cast<uint32_t*>(scratch);
     const auto cells = std::size_t(dims[0] * dims[1] * dims[2]);
     std::memset(counts, 0, (cells + 1) * sizeof(uint32_t));
-    for (int64_t i = 0; i < n; ++i) ++counts[cell_of(i) + 1];
+    for (int64_t i = 0; i < size; ++i)
+      if (node(i)) ++counts[cell_of(i) + 1];
     for (std::size_t c = 1; c <= cells; ++c) counts[c] += counts[c - 1];
-    for (int64_t i = 0; i < n; ++i) order[counts[cell_of(i)]++] = uint32_t(i);
+    for (int64_t i = 0; i < size; ++i)
+      if (node(i)) order[counts[cell_of(i)]++] = uint32_t(i);
   }
 
   // Lattices, once per run (features do not change across iterations); point k = surfel order[k].
@@ -326,8 +346,9 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
                     cb = float(slam::unpack_b(color[s]));
         for (int64_t kj = 0; kj < n; ++kj) {
           // Pool order (sequential reads) when every surfel takes part, else slot order.
-          const int64_t j = stats.surfels_left_out == 0 ? kj : int64_t(order[kj]);
-          if (stats.surfels_left_out != 0 && !bilateral_.included(kj)) continue;
+          const bool all = stats.surfels_left_out == 0 && n == size;
+          const int64_t j = all ? kj : int64_t(order[kj]);
+          if (!all && !bilateral_.included(kj)) continue;
           const float dx = px[j] - px[s], dy = py[j] - py[s], dz = pz[j] - pz[s];
           const float p2 = dx * dx + dy * dy + dz * dz;
           const float d1 = p2 * ip1 * ip1, d2 = p2 * ip2 * ip2;

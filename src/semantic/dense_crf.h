@@ -69,8 +69,16 @@ struct DenseCrfOptions {
   float spatial_weight = 3.0f;
   // Mean-field iterations per run (1..100: its table). Default 10 (the paper).
   int iterations = 10;
-  // Most surfels one run handles (>= 1, at most 100,000,000 / 7): a pool holding more is an error.
-  // Default 1,000,000 (the default pool). kBytesPerSurfel each.
+  // Surfels with confidence below this (the pool's accumulated fusion weight, >= 0) are not nodes of
+  // the CRF: no messages to or from them, their labels untouched (DenseCrfStats::surfels_unconfident).
+  // Default 10, the map's stable threshold (FusionOptions::stable_confidence's default): the CRF
+  // covers the surface tracking trusts, not the fringe of single views and noise that fusion has not
+  // confirmed (and may still remove). On the real 7-Scenes map (371k surfels, 277k stable) 10
+  // iterations take 0.82 s instead of 1.15 s and fit in fewer lattice vertices (docs/results.md,
+  // with its effect on Table I). 0 = every surfel.
+  float min_confidence = 10.0f;
+  // Most surfels one run handles as nodes (>= 1, at most 100,000,000 / 7): a pool holding more (at or
+  // above min_confidence) is an error. Default 1,000,000 (the default pool). kBytesPerSurfel each.
   int64_t capacity = 1'000'000;
   // Most vertices of each kernel's lattice (>= 7); 0 = derived: 3/10 of capacity (rounded up, at
   // least 7). A simplex has 7 vertices but neighbouring surfels share them: bench_crf's 500k-surfel
@@ -86,7 +94,7 @@ struct DenseCrfOptions {
 
   // The vertex limit in force (max_lattice_vertices, or the derived default).
   int64_t lattice_vertices() const;
-  // The keys `run` offers (section crf): iterations.
+  // The keys `run` offers (section crf): iterations, min_confidence.
   static const opt::Table<DenseCrfOptions>& table();
   Status validate() const;
   std::string describe() const;
@@ -96,6 +104,7 @@ struct DenseCrfStats {
   int64_t surfels = 0;            // surfels in the pool when run() started
   int64_t surfels_updated = 0;    // surfels whose distribution was rewritten
   int64_t surfels_left_out = 0;   // surfels not updated because a lattice was full
+  int64_t surfels_unconfident = 0;  // surfels below DenseCrfOptions::min_confidence: no nodes
   int64_t bilateral_vertices = 0; // lattice vertices of the bilateral kernel
   int64_t spatial_vertices = 0;   // lattice vertices of the spatial kernel
   int iterations = 0;             // mean-field iterations run

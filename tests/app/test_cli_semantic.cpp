@@ -235,13 +235,31 @@ TEST(CliSemantic, CrfEveryMFramesAndAtTheEnd) {
   const auto dir = test::scratch_dir("cli-semantic-crf");
   const fs::path model = tiny_model(dir);
   const std::string uri = "synthetic:bedroom?frames=10&size=160x120";
-  auto r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",
-           "--crf-every", "4", "--crf-final", "--crf-iterations", "3", "--surfel-capacity", "100000", "--deterministic",
-           "--out", (dir / "crf").string(), "--quiet"});
+  const std::vector<std::string> crf = {"run", "--source", uri, "--resolution", "160x120", "--model", model.string(),
+                                        "--label-every", "2", "--crf-every", "4", "--crf-final", "--crf-iterations",
+                                        "3", "--surfel-capacity", "100000", "--deterministic", "--quiet"};
+  // At the default crf.min_confidence (the stable threshold) ten frames leave most surfels out.
+  auto args = crf;
+  args.insert(args.end(), {"--out", (dir / "stable").string()});
+  auto r = cli(args);
   ASSERT_EQ(r.code, 0) << r.err;
-  const std::string stats = read_file(dir / "crf" / "stats.json");
+  std::string stats = read_file(dir / "stable" / "stats.json");
+  EXPECT_EQ(stats_counter(stats, "crf_runs"), 3) << stats;
+  EXPECT_GT(stats_counter(stats, "crf_surfels_unconfident"), 0) << stats;
+  EXPECT_NE(r.err.find("below crf.min_confidence"), std::string::npos) << r.err;
+  // Every surfel a node (crf.min_confidence 0, from a configuration file).
+  {
+    std::ofstream yaml(dir / "every.yaml");
+    yaml << "crf:\n  min_confidence: 0\n";
+  }
+  args = crf;
+  args.insert(args.end(), {"--config", (dir / "every.yaml").string(), "--out", (dir / "crf").string()});
+  r = cli(args);
+  ASSERT_EQ(r.code, 0) << r.err;
+  stats = read_file(dir / "crf" / "stats.json");
   EXPECT_EQ(stats_counter(stats, "crf_runs"), 3) << stats;  // frames 4 and 8, then the end (frame 10)
   EXPECT_EQ(stats_counter(stats, "crf_surfels_left_out"), 0) << stats;
+  EXPECT_EQ(stats_counter(stats, "crf_surfels_unconfident"), 0) << stats;
   EXPECT_NE(r.err.find("dense CRF at frame 10"), std::string::npos) << r.err;
 
   r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",

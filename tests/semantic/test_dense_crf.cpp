@@ -479,6 +479,63 @@ TEST(DenseCrf, FullLatticeLeavesSurfelsOutAndCountsThem) {
   EXPECT_EQ(again->surfels_left_out, r->surfels_left_out);
 }
 
+// min_confidence: surfels below it are no nodes. Their labels stay as they were, they are counted,
+// and the nodes come out exactly as a CRF over a pool of the nodes alone (calibration off: its
+// sums run in another order there). A wrong floor label on an unconfident surfel is not fixed; the
+// same surfel confident is.
+TEST(DenseCrf, UnconfidentSurfelsAreNoNodes) {
+  std::vector<TestSurfel> map;
+  for (int a = 0; a < 15; ++a)
+    for (int b = 0; b < 15; ++b)
+      map.push_back({{a * 0.01f, b * 0.01f, 1.0f}, {0, 0, 1}, {120, 118, 115}, peaked(a == 7 && b == 7 ? 12 : 4, 0.6f)});
+  auto [pool, before, o] = make_crf_map(map);
+  // Every third surfel, the wrong one included, below the threshold.
+  std::vector<TestSurfel> confident;
+  float* conf = pool.confidence();
+  for (int64_t i = 0; i < pool.size(); ++i) {
+    const bool low = i % 3 == 0 || i == 7 * 15 + 7;
+    conf[i] = low ? 4.0f : 20.0f;
+    if (!low) confident.push_back(map[std::size_t(i)]);
+  }
+  o.min_confidence = 10.0f;
+  o.calibration_samples = 0;
+  o.max_lattice_vertices = 2000;  // room for every node in both runs (none left out)
+  auto crf = DenseCrf::create(o);
+  ASSERT_TRUE(crf.ok());
+  auto r = crf->run(pool);
+  ASSERT_TRUE(r.ok()) << to_string(r.error());
+  EXPECT_EQ(r->surfels_unconfident, pool.size() - int64_t(confident.size()));
+  EXPECT_EQ(r->surfels_updated, int64_t(confident.size()));
+  auto [alone, alone_before, ao] = make_crf_map(confident);
+  ao.calibration_samples = 0;
+  ao.max_lattice_vertices = 2000;
+  auto crf_alone = DenseCrf::create(ao);
+  ASSERT_TRUE(crf_alone.ok());
+  ASSERT_TRUE(crf_alone->run(alone).ok());
+  int64_t k = 0, changed_nodes = 0;
+  for (int64_t i = 0; i < pool.size(); ++i) {
+    const uint8_t* got = pool.labels() + i * kLabelBytes;
+    if (pool.confidence()[i] < 10.0f) {
+      EXPECT_TRUE(std::equal(got, got + kLabelBytes, before.begin() + i * kLabelBytes)) << "unconfident surfel " << i;
+      continue;
+    }
+    const uint8_t* want = alone.labels() + k++ * kLabelBytes;
+    EXPECT_TRUE(std::equal(got, got + kLabelBytes, want)) << "surfel " << i;
+    changed_nodes += std::equal(got, got + kLabelBytes, before.begin() + i * kLabelBytes) ? 0 : 1;
+  }
+  EXPECT_GT(changed_nodes, 100);  // the CRF did run over the nodes
+  EXPECT_EQ(label_argmax(pool.labels() + (7 * 15 + 7) * kLabelBytes), 12);  // not a node: kept its label
+  // Capacity counts the nodes only.
+  o.capacity = int64_t(confident.size());
+  auto small = DenseCrf::create(o);
+  ASSERT_TRUE(small.ok());
+  EXPECT_TRUE(small->run(pool).ok());
+  o.min_confidence = 0.0f;
+  auto every = DenseCrf::create(o);
+  ASSERT_TRUE(every.ok());
+  EXPECT_FALSE(every->run(pool).ok());
+}
+
 TEST(DenseCrf, EmptyPoolIsANoOp) {
   slam::SurfelPoolOptions po;
   po.capacity = 8;
