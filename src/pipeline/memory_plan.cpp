@@ -78,6 +78,17 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
   return plan_memory(config, probe);
 }
 
+int64_t crf_nodes(const RunConfig& config, std::size_t other_bytes, std::size_t budget_bytes) {
+  const int64_t pool = config.mapping.pool.capacity;
+  if (config.crf.capacity > 0) return config.crf.capacity;
+  // Bytes per node of crf_options_for_run's sizing (a lattice of 1.25 vertices per node), rounded up.
+  const std::size_t per_node = semantic::DenseCrf::kBytesPerSurfel + (5 * semantic::DenseCrf::kBytesPerVertex + 3) / 4;
+  const std::size_t left = budget_bytes > other_bytes ? budget_bytes - other_bytes : 0;
+  // Rounding and alignment of the buffers take a few bytes more than per_node x nodes: keep 1 MB.
+  const std::size_t fits = left > 1'000'000 ? (left - 1'000'000) / per_node : 0;
+  return std::max<int64_t>(kMinCrfNodes, std::min<int64_t>(pool, static_cast<int64_t>(fits)));
+}
+
 Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe) {
   MemoryPlan plan;
   const auto add = [&plan](std::string name, size_t bytes, std::string detail) {
@@ -178,12 +189,6 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
           "after the run: frames at " + size_text(probe.width, probe.height) + " and " + size_text(w, h) +
               ", a CNN result, a predictor of the whole map, the rendering");
     }
-    if (sem.crf.on()) {
-      add("dense crf", semantic::DenseCrf::bytes_for(sem.dense_crf),
-          std::to_string(sem.dense_crf.capacity) + " surfels x " + std::to_string(semantic::DenseCrf::kBytesPerSurfel) +
-              " + " + std::to_string(sem.dense_crf.lattice_vertices()) + " lattice vertices x about " +
-              std::to_string(semantic::DenseCrf::kBytesPerVertex) + " (semantic/dense_crf.h)");
-    }
   }
 
   // Prepared frames (pipeline/front_stage.h): per slot the working frame and its preprocessor.
@@ -192,8 +197,24 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
       size_t(slots) * PreparedFrame::bytes_for(w, h, probe.has_labels, slam::Preprocessor::bytes_for(w, h, slam.preprocess)),
       std::to_string(slots) + " slots x (working frame " + size_text(w, h) + " + pyramids)");
 
-  for (const MemoryPart& p : plan.parts) plan.total_bytes += p.bytes;
   plan.budget_bytes = static_cast<size_t>(config.memory.budget_mb) * 1'000'000;
+  // The dense CRF last: with crf.capacity 0 it takes what the budget leaves (at most the pool).
+  if (config.labels.enabled && config.crf.on()) {
+    std::size_t others = 0;
+    for (const MemoryPart& p : plan.parts) others += p.bytes;
+    plan.crf_nodes = crf_nodes(config, others, plan.budget_bytes);
+    const semantic::DenseCrfOptions co = crf_options_for_run(config, plan.crf_nodes);
+    add("dense crf", semantic::DenseCrf::bytes_for(co),
+        std::to_string(co.capacity) + " surfels x " + std::to_string(semantic::DenseCrf::kBytesPerSurfel) + " + " +
+            std::to_string(co.lattice_vertices()) + " lattice vertices x about " +
+            std::to_string(semantic::DenseCrf::kBytesPerVertex) + " (semantic/dense_crf.h)" +
+            (config.crf.capacity > 0 ? std::string(" (crf.capacity)")
+             : co.capacity < config.mapping.pool.capacity
+                 ? std::string(" (crf.capacity 0: what the budget leaves, fewer than the pool's ") +
+                       std::to_string(config.mapping.pool.capacity) + ")"
+                 : std::string(" (crf.capacity 0: the pool's)")));
+  }
+  for (const MemoryPart& p : plan.parts) plan.total_bytes += p.bytes;
   return plan;
 }
 

@@ -36,12 +36,19 @@ struct MemoryPlan {
   std::vector<MemoryPart> parts;  // in start-up order
   std::size_t total_bytes = 0;    // sum of the parts
   std::size_t budget_bytes = 0;   // memory.budget_mb x 10^6
+  int64_t crf_nodes = 0;          // the dense CRF's capacity (crf_nodes()); 0 when no CRF runs
   bool within_budget() const { return total_bytes <= budget_bytes; }
   // The bytes of the part named `name`; 0 when there is none.
   std::size_t bytes_of(const std::string& name) const;
   // A table: part, bytes, MB, detail; then the total and the budget.
   std::string table() const;
 };
+
+// The dense CRF's capacity in surfels: crf.capacity, or when it is 0 the pool's capacity, but no
+// more than fit in what the budget leaves after `other_bytes` (every other part of the plan), and
+// at least kMinCrfNodes (a plan that leaves less is over budget anyway and says so).
+constexpr int64_t kMinCrfNodes = 1000;
+int64_t crf_nodes(const RunConfig& config, std::size_t other_bytes, std::size_t budget_bytes);
 
 // The plan of `config` for a source of `probe` (sources/open_source.h). Errors: the model file's
 // (missing: kNotFound naming it; invalid: the loader's) when labels are on.

@@ -58,6 +58,10 @@ const opt::Table<CrfOptions>& CrfOptions::table() {
        "how often the dense CRF runs over the whole map (the paper: every 500)"},
       {"final", "crf_final", "--crf-final", &CrfOptions::final, "", opt::any(),
        "one dense CRF over the whole map at the end of the run, before map.ply is written"},
+      {"capacity", "crf_capacity", "", &CrfOptions::capacity, "surfels",
+       opt::between(1, 100'000'000 / 7).or_value(0, "derived"),
+       "most surfels the CRF takes (the confident ones seen most recently); 0 = the pool's capacity, or fewer if the "
+       "memory budget leaves less (edgefusion plan shows it)"},
   };
   return t;
 }
@@ -307,9 +311,9 @@ Status check_run(const RunConfig& config, const SourceProbe& source) {
   return Status::success();
 }
 
-semantic::DenseCrfOptions crf_options_for_run(const RunConfig& config) {
+semantic::DenseCrfOptions crf_options_for_run(const RunConfig& config, int64_t nodes) {
   semantic::DenseCrfOptions co = config.dense_crf;
-  co.capacity = config.mapping.pool.capacity;
+  co.capacity = nodes > 0 ? nodes : config.crf.capacity > 0 ? config.crf.capacity : config.mapping.pool.capacity;
   // Lattice vertices per surfel of capacity. A SurfelSlam map needs more than the CRF's default
   // (0.3, measured on noise-free sampled surfaces): on the synthetic seed-5001 loop (370k surfels
   // after 300 frames) the spatial kernel's lattice had 1.13 vertices per surfel (noisy normals

@@ -74,6 +74,12 @@ struct LabelOptions {
 struct CrfOptions {
   int every = 0;       // every M frames; 0 = off (the paper: 500)
   bool final = false;  // once at the end of the run, before map.ply is written
+  // Most surfels the CRF takes as nodes (its memory: semantic::DenseCrf::kBytesPerSurfel and 1.25
+  // lattice vertices each); beyond it the confident surfels seen longest ago are left as fused
+  // (DenseCrfOptions::capacity). 0 = derived: the pool's capacity, or fewer where the memory budget
+  // leaves less after every other part of the plan (MemoryPlan::crf_nodes), so that a CRF run fits
+  // the budget at any pool size.
+  int64_t capacity = 0;
 
   static const opt::Table<CrfOptions>& table();
   Status validate() const;
@@ -132,7 +138,7 @@ struct RunConfig {
   LabelOptions labels;
   semantic::LabelFusionOptions label_fusion;  // its image sizes are set by the semantics step
   CrfOptions crf;
-  semantic::DenseCrfOptions dense_crf;      // its capacity and lattice come from the pool (crf_options_for_run)
+  semantic::DenseCrfOptions dense_crf;      // its capacity and lattice come from crf_options_for_run
   PipelineOptions pipeline;
   MemoryOptions memory;
   OutputOptions output;
@@ -156,9 +162,10 @@ struct RunConfig {
 // (pipeline/run_folder.h). With validate() and the memory plan, what `run` and `plan` check.
 Status check_run(const RunConfig& config, const SourceProbe& source);
 
-// The dense CRF's options for a run: config.dense_crf with the pool's capacity and a lattice sized
-// for a SurfelSlam map (the RunSemantics step and the memory plan both use it).
-semantic::DenseCrfOptions crf_options_for_run(const RunConfig& config);
+// The dense CRF's options for a run: config.dense_crf with a capacity of `nodes` (>= 1; the memory
+// plan derives it: MemoryPlan::crf_nodes) and a lattice sized for a SurfelSlam map (the RunSemantics
+// step and the memory plan both use it). Without `nodes`: crf.capacity, or the pool's capacity.
+semantic::DenseCrfOptions crf_options_for_run(const RunConfig& config, int64_t nodes = 0);
 
 // One key of the configuration: a row of an options table bound to its place in a RunConfig.
 struct ConfigKey {

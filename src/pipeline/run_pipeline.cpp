@@ -11,6 +11,7 @@
 #include "io/ply_writer.h"
 #include "io/stats_json.h"
 #include "pipeline/checkpoint.h"
+#include "pipeline/memory_plan.h"
 #include "pipeline/run_folder.h"
 #include "platform/cpu/thread_affinity.h"
 #include "sources/open_source.h"
@@ -45,7 +46,14 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   const SourceInfo& info = source.info();
   const Intrinsics working = info.intrinsics.scaled_to(config.run.resolution.width, config.run.resolution.height);
   if (config.labels.enabled) {
-    auto sem = RunSemantics::create(semantics_options(config), working, stats);
+    // The CRF's capacity as the memory plan derives it (crf.capacity 0: what the budget leaves).
+    int64_t crf_nodes = 0;
+    if (config.crf.on()) {
+      auto plan = plan_memory(config, probe_of(source));
+      if (!plan.ok()) return plan.take_error();
+      crf_nodes = plan->crf_nodes;
+    }
+    auto sem = RunSemantics::create(semantics_options(config, crf_nodes), working, stats);
     if (!sem.ok()) return sem.take_error();
     p->semantics_ = std::move(*sem);
   }

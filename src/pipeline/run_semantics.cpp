@@ -15,12 +15,12 @@
 
 namespace ef::pipeline {
 
-SemanticsOptions semantics_options(const RunConfig& config) {
+SemanticsOptions semantics_options(const RunConfig& config, int64_t crf_nodes) {
   SemanticsOptions o;
   o.labels = config.labels;
   o.fusion = config.label_fusion;
   o.crf = config.crf;
-  o.dense_crf = crf_options_for_run(config);
+  o.dense_crf = crf_options_for_run(config, crf_nodes);
   o.pool_capacity = config.mapping.pool.capacity;
   o.prediction = config.mapping.prediction;
   o.source = config.run.source;

@@ -54,12 +54,14 @@ struct SemanticsOptions {
   LabelOptions labels;                  // the network and the label images
   semantic::LabelFusionOptions fusion;  // its image sizes are set by create()
   CrfOptions crf;                       // when the dense CRF runs
-  semantic::DenseCrfOptions dense_crf;  // sized for the pool (crf_options_for_run)
+  semantic::DenseCrfOptions dense_crf;  // sized by crf_options_for_run
   int64_t pool_capacity = 0;            // surfels: map.ply's class columns
   slam::PredictionOptions prediction;   // the mapping's: late results' index maps are rendered alike
   std::string source;                   // the run's source URI: which shipped model is the default
 };
-SemanticsOptions semantics_options(const RunConfig& config);
+// crf_nodes: the CRF's capacity (MemoryPlan::crf_nodes: what `run` plans); 0 = crf.capacity or the
+// pool's (crf_options_for_run).
+SemanticsOptions semantics_options(const RunConfig& config, int64_t crf_nodes = 0);
 
 // DIR/<frame name>.png, the label image of `frame` (its index, 6 digits, where it has no name): the
 // names `edgefusion convert --to tum:` gives its labels, so `edgefusion eval labels` pairs them.

@@ -164,18 +164,39 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
   const int64_t size = pool.size();
   DenseCrfStats stats;
   stats.surfels = size;
-  // The nodes: surfels at or above min_confidence (n of them; every surfel at the default 0).
+  // The nodes: surfels at or above min_confidence, and of those, when there are more than the
+  // capacity, the ones seen most recently (whole frames: every node seen at most max_age frames
+  // before the newest is one).
   const float* confidence = read.confidence();
+  const int32_t* last_seen = read.last_seen();
   const float min_confidence = options_.min_confidence;
-  const auto node = [&](int64_t i) { return !(confidence[i] < min_confidence); };
+  const auto confident = [&](int64_t i) { return !(confidence[i] < min_confidence); };
   int64_t n = 0;
-  for (int64_t i = 0; i < size; ++i) n += node(i) ? 1 : 0;
+  int32_t newest = INT32_MIN;
+  for (int64_t i = 0; i < size; ++i) {
+    if (!confident(i)) continue;
+    ++n;
+    newest = std::max(newest, last_seen[i]);
+  }
   stats.surfels_unconfident = size - n;
-  if (n > options_.capacity)
-    return error(ErrorCode::kResourceExhausted, "dense crf: the pool holds " + std::to_string(n) +
-                                                    " surfels with confidence >= " + std::to_string(min_confidence) +
-                                                    ", more than the CRF's capacity " +
-                                                    std::to_string(options_.capacity) + " (DenseCrfOptions::capacity)");
+  int64_t max_age = INT64_MAX;
+  if (n > options_.capacity) {
+    // Ages (frames before the newest) in bins of one frame up to kAges - 2, the rest in the last;
+    // the largest age whose nodes and younger ones fit.
+    constexpr int kAges = 4096;
+    uint32_t histogram[kAges] = {};
+    for (int64_t i = 0; i < size; ++i)
+      if (confident(i)) ++histogram[std::min<int64_t>(int64_t(newest) - last_seen[i], kAges - 1)];
+    int64_t kept = 0;
+    max_age = -1;
+    for (int a = 0; a < kAges - 1 && kept + histogram[a] <= options_.capacity; ++a) {
+      kept += histogram[a];
+      max_age = a;
+    }
+    stats.surfels_beyond_capacity = n - kept;
+    n = kept;
+  }
+  const auto node = [&](int64_t i) { return confident(i) && int64_t(newest) - last_seen[i] <= max_age; };
   if (n == 0) {
     stats.total_ms = ms_since(t_start);
     return stats;
@@ -411,7 +432,7 @@ Result<DenseCrfStats> DenseCrf::run(slam::SurfelPool& pool) {
       spatial_.blur(splat2);
     }
   }
-  stats.surfels_updated = n - stats.surfels_left_out;
+  stats.surfels_updated = n - stats.surfels_left_out;  // the nodes the lattices held
   stats.iterations = options_.iterations;
   stats.iterate_ms = ms_since(t_iterate);
   stats.total_ms = ms_since(t_start);

@@ -77,8 +77,11 @@ struct DenseCrfOptions {
   // iterations take 0.82 s instead of 1.15 s and fit in fewer lattice vertices (docs/results.md,
   // with its effect on Table I). 0 = every surfel.
   float min_confidence = 10.0f;
-  // Most surfels one run handles as nodes (>= 1, at most 100,000,000 / 7): a pool holding more (at or
-  // above min_confidence) is an error. Default 1,000,000 (the default pool). kBytesPerSurfel each.
+  // Most surfels one run handles as nodes (>= 1, at most 100,000,000 / 7). When the pool holds more
+  // at or above min_confidence, the nodes are those seen most recently (every one seen within the
+  // last A frames, A the largest that fits), the rest keep their labels and are counted
+  // (DenseCrfStats::surfels_beyond_capacity): a map larger than the memory allows is still refined
+  // where the camera is. Default 1,000,000 (the default pool). kBytesPerSurfel each.
   int64_t capacity = 1'000'000;
   // Most vertices of each kernel's lattice (>= 7); 0 = derived: 3/10 of capacity (rounded up, at
   // least 7). A simplex has 7 vertices but neighbouring surfels share them: bench_crf's 500k-surfel
@@ -105,6 +108,7 @@ struct DenseCrfStats {
   int64_t surfels_updated = 0;    // surfels whose distribution was rewritten
   int64_t surfels_left_out = 0;   // surfels not updated because a lattice was full
   int64_t surfels_unconfident = 0;  // surfels below DenseCrfOptions::min_confidence: no nodes
+  int64_t surfels_beyond_capacity = 0;  // confident surfels seen longest ago beyond the capacity: no nodes
   int64_t bilateral_vertices = 0; // lattice vertices of the bilateral kernel
   int64_t spatial_vertices = 0;   // lattice vertices of the spatial kernel
   int iterations = 0;             // mean-field iterations run

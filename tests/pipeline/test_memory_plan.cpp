@@ -141,7 +141,7 @@ TEST(PlanMemory, MatchesWhatTheObjectsAllocate) {
   EXPECT_EQ(plan->bytes_of("cnn jobs"), (*pipeline)->cnn_job_bytes());
   EXPECT_EQ(plan->bytes_of("late label fusion"), (*pipeline)->semantics()->late_fusion_bytes());
 
-  auto crf = semantic::DenseCrf::create(crf_options_for_run(c));  // the options `run` creates it with
+  auto crf = semantic::DenseCrf::create(crf_options_for_run(c, plan->crf_nodes));  // the options `run` creates it with
   ASSERT_TRUE(crf.ok()) << to_string(crf.error());
   EXPECT_EQ(plan->bytes_of("dense crf"), crf->bytes()) << plan->table();
 
@@ -189,7 +189,8 @@ TEST(PlanMemory, RealCameraModelPartsAreWhatTheRunAllocates) {
 TEST(PlanMemory, OverBudgetIsRefusedWithTheNumbers) {
   RunConfig c;
   c.mapping.pool.capacity = 2'000'000;
-  c.crf.final = true;  // 2M x (60 + 588 + 5) bytes alone is 1.3 GB
+  c.crf.final = true;
+  c.crf.capacity = 2'000'000;  // 2M x (60 + 588 + 5) bytes alone is 1.3 GB
   auto plan = plan_memory(c);
   ASSERT_TRUE(plan.ok()) << to_string(plan.error());
   EXPECT_FALSE(plan->within_budget());
@@ -202,6 +203,27 @@ TEST(PlanMemory, OverBudgetIsRefusedWithTheNumbers) {
 
   c.memory.budget_mb = 2000;
   EXPECT_TRUE(check_memory_budget(c).ok());
+  c.memory.budget_mb = 256;
+  // crf.capacity 0 (derived): the CRF takes what the budget leaves, fewer surfels than the pool.
+  c.crf.capacity = 0;
+  c.mapping.pool.capacity = 1'000'000;
+  auto derived = plan_memory(c);
+  ASSERT_TRUE(derived.ok()) << to_string(derived.error());
+  EXPECT_TRUE(derived->within_budget()) << derived->table();
+  EXPECT_GT(derived->total_bytes, derived->budget_bytes - 2'000'000) << derived->table();  // and uses it
+  EXPECT_GT(derived->crf_nodes, 100'000);
+  EXPECT_LT(derived->crf_nodes, 1'000'000);
+  EXPECT_NE(derived->table().find("what the budget leaves"), std::string::npos) << derived->table();
+  // With room for all of it, the pool's capacity; with a budget too small for the rest, over budget.
+  c.memory.budget_mb = 2000;
+  auto roomy = plan_memory(c);
+  ASSERT_TRUE(roomy.ok());
+  EXPECT_EQ(roomy->crf_nodes, 1'000'000);
+  c.memory.budget_mb = 60;
+  auto tight = plan_memory(c);
+  ASSERT_TRUE(tight.ok());
+  EXPECT_EQ(tight->crf_nodes, kMinCrfNodes);
+  EXPECT_FALSE(tight->within_budget());
   c.memory.budget_mb = 256;
   c.crf.final = false;
   c.mapping.pool.capacity = 1'000'000;

@@ -415,17 +415,38 @@ TEST(DenseCrf, InvalidOptionsAreRejected) {
   bad([](DenseCrfOptions& o) { o.max_lattice_vertices = 3; });
 }
 
-TEST(DenseCrf, PoolLargerThanCapacityIsAnErrorAndLeavesLabels) {
-  const std::vector<TestSurfel> map = floor_and_strip();
+// More confident surfels than the capacity: the nodes are those seen most recently, in whole frames;
+// the rest keep their labels exactly and are counted.
+TEST(DenseCrf, PoolLargerThanCapacityKeepsTheMostRecentlySeen) {
+  const std::vector<TestSurfel> map = floor_and_strip();  // 304 surfels
   auto [pool, before, o] = make_crf_map(map);
-  o.capacity = 100;
+  // Surfel i last seen at frame 1000 - i / 10: ten surfels a frame, the first the newest.
+  int32_t* seen = pool.last_seen();
+  for (int64_t i = 0; i < pool.size(); ++i) seen[i] = int32_t(1000 - i / 10);
+  o.capacity = 105;  // 10 frames of 10 fit, the 11th would not
+  o.max_lattice_vertices = 2000;
   auto crf = DenseCrf::create(o);
   ASSERT_TRUE(crf.ok());
   auto r = crf->run(pool);
-  ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error().code, ErrorCode::kResourceExhausted);
-  EXPECT_NE(r.error().message.find("capacity 100"), std::string::npos) << r.error().message;
-  EXPECT_TRUE(std::equal(before.begin(), before.end(), pool.labels()));
+  ASSERT_TRUE(r.ok()) << to_string(r.error());
+  EXPECT_EQ(r->surfels_beyond_capacity, pool.size() - 100);
+  EXPECT_EQ(r->surfels_updated, 100);
+  int64_t changed_new = 0;
+  for (int64_t i = 0; i < pool.size(); ++i) {
+    const bool same = std::equal(before.begin() + i * kLabelBytes, before.begin() + (i + 1) * kLabelBytes,
+                                 pool.labels() + i * kLabelBytes);
+    if (i >= 100) EXPECT_TRUE(same) << "surfel " << i << " beyond the capacity changed";
+    else changed_new += same ? 0 : 1;
+  }
+  EXPECT_GT(changed_new, 50);
+  // Capacity for all: none beyond it.
+  o.capacity = pool.size();
+  auto all = DenseCrf::create(o);
+  ASSERT_TRUE(all.ok());
+  auto every = all->run(pool);
+  ASSERT_TRUE(every.ok());
+  EXPECT_EQ(every->surfels_beyond_capacity, 0);
+  EXPECT_EQ(every->surfels_updated, pool.size());
 }
 
 TEST(DenseCrf, NonFinitePositionIsAnError) {
@@ -529,11 +550,15 @@ TEST(DenseCrf, UnconfidentSurfelsAreNoNodes) {
   o.capacity = int64_t(confident.size());
   auto small = DenseCrf::create(o);
   ASSERT_TRUE(small.ok());
-  EXPECT_TRUE(small->run(pool).ok());
+  auto again = small->run(pool);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->surfels_beyond_capacity, 0);
   o.min_confidence = 0.0f;
   auto every = DenseCrf::create(o);
   ASSERT_TRUE(every.ok());
-  EXPECT_FALSE(every->run(pool).ok());
+  auto over = every->run(pool);
+  ASSERT_TRUE(over.ok());
+  EXPECT_GT(over->surfels_beyond_capacity, 0);  // all seen at frame 0: none fits whole
 }
 
 TEST(DenseCrf, EmptyPoolIsANoOp) {
