@@ -123,6 +123,7 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOption
   s->c_crf_runs_ = stats.add_counter("crf_runs");
   s->c_crf_left_out_ = stats.add_counter("crf_surfels_left_out");
   s->c_crf_unconfident_ = stats.add_counter("crf_surfels_unconfident");
+  s->c_crf_beyond_ = stats.add_counter("crf_surfels_beyond_capacity");
   s->c_late_ = stats.add_counter("cnn_results_late");
   s->c_unfused_ = stats.add_counter("cnn_results_unfused");
   return s;
@@ -289,11 +290,14 @@ Status RunSemantics::run_crf(slam::SurfelSlam& slam) {
   stats_->increment(c_crf_runs_);
   stats_->increment(c_crf_left_out_, static_cast<uint64_t>(r->surfels_left_out));
   stats_->increment(c_crf_unconfident_, static_cast<uint64_t>(r->surfels_unconfident));
+  stats_->increment(c_crf_beyond_, static_cast<uint64_t>(r->surfels_beyond_capacity));
   std::fprintf(stderr,
-               "\ndense CRF at frame %lld: %lld surfels (%lld below crf.min_confidence, left as fused), lattice "
-               "vertices %lld bilateral / %lld spatial, %lld left out (lattice full), %d iterations, %.0f ms\n",
+               "\ndense CRF at frame %lld: %lld surfels (%lld below crf.min_confidence and %lld seen longest ago "
+               "beyond its capacity of %lld, left as fused), lattice vertices %lld bilateral / %lld spatial, %lld left "
+               "out (lattice full), %d iterations, %.0f ms\n",
                static_cast<long long>(slam.frames()), static_cast<long long>(r->surfels),
-               static_cast<long long>(r->surfels_unconfident), static_cast<long long>(r->bilateral_vertices),
+               static_cast<long long>(r->surfels_unconfident), static_cast<long long>(r->surfels_beyond_capacity),
+               static_cast<long long>(crf_->options().capacity), static_cast<long long>(r->bilateral_vertices),
                static_cast<long long>(r->spatial_vertices), static_cast<long long>(r->surfels_left_out), r->iterations,
                r->total_ms);
   last_crf_frame_ = slam.frames();

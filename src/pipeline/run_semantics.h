@@ -190,7 +190,7 @@ class RunSemantics {
   StageStats* stats_ = nullptr;
   int st_segment_ = -1, st_fuse_ = -1, st_render_ = -1, st_crf_ = -1;
   int c_cnn_frames_ = -1, c_surfel_updates_ = -1, c_hidden_ = -1, c_no_depth_ = -1, c_label_images_ = -1;
-  int c_crf_runs_ = -1, c_crf_left_out_ = -1, c_crf_unconfident_ = -1;
+  int c_crf_runs_ = -1, c_crf_left_out_ = -1, c_crf_unconfident_ = -1, c_crf_beyond_ = -1;
   int c_late_ = -1, c_unfused_ = -1;
   int64_t last_crf_frame_ = -1;
 };
