@@ -20,6 +20,11 @@ The runs, one after the other (never together, so that they do not share the cor
               beside the mapper), one and two threads
               back to back, --reps times (bench/pipeline_hz.py's runs): frames per second over the
               whole run and the peak resident memory (stats.json), medians.
+  crf         bench_crf --checkpoint on the map of the first two-thread pipeline run (real, labels
+              fused): 10 mean-field iterations over its confident surfels, one thread, median of 3;
+              and `edgefusion plan --crf-final` for the 7-Scenes source at the default pool and budget.
+  growth      bench/slam_growth.sh: the four SLAM stages per 1,000 frames of a 10,000-frame synthetic
+              robot path, the last window's median sum against the second's, and the surfels.
 """
 import argparse
 import datetime
@@ -152,6 +157,37 @@ def pipeline(args, work):
             "all_hz2": fps[2]}
 
 
+def crf(args, work):
+    """The dense CRF over the real map of the first two-thread pipeline run, and its plan."""
+    folder = os.path.join(work, "pipeline-t2-r0")
+    with open(os.path.join(folder, "stats.json")) as f:
+        surfels = json.load(f)["surfels"]
+    bench = os.path.join(args.build, "bench", "bench_crf")
+    # Lattices sized as `run` sizes them (1.25 vertices per node; here per surfel of the whole map).
+    out = run([bench, "--checkpoint", folder, "--reps", "3", "--max-vertices", str((5 * surfels + 3) // 4)])
+    nodes = re.search(r"nodes: (\d+) of (\d+) surfels", out)
+    ms = re.search(r"run\(\), 10 iterations\s+([\d.]+) ms", out)
+    plan = run([args.edgefusion, "plan", "--source", f"7scenes:{args.data}", "--crf-final", "--out",
+                os.path.join(work, "plan")])
+    part = re.search(r"^dense crf\s+(\d+)\s+[\d.]+\s+(\d+) surfels", plan, re.M)
+    total = re.search(r"^total\s+(\d+)", plan, re.M)
+    budget = re.search(r"^budget\s+(\d+)", plan, re.M)
+    return {"nodes": int(nodes.group(1)), "surfels": int(nodes.group(2)), "ms": float(ms.group(1)),
+            "plan_nodes": int(part.group(2)), "plan_mb": int(total.group(1)) / 1e6, "budget_mb": int(budget.group(1)) / 1e6}
+
+
+def growth(args):
+    """bench/slam_growth.sh's table: the SLAM stages per 1,000 frames of a 10,000-frame synthetic run."""
+    out = run(["bash", os.path.join(REPO, "bench", "slam_growth.sh"), "--bench",
+               os.path.join(args.build, "bench", "bench_slam_stages")])
+    windows = re.findall(r"^\s+(\d+)-(\d+)\s+(\d+)\s+[\d.]+\s+[\d.]+\s+[\d.]+\s+[\d.]+\s+([\d.]+)\s+(\d+)%", out, re.M)
+    if len(windows) < 3:
+        sys.exit("headline: bench/slam_growth.sh printed fewer than 3 windows:\n" + out)
+    rows = [{"surfels": int(w[2]), "sum": float(w[3]), "blocks": int(w[4])} for w in windows]
+    return {"frames": int(windows[-1][1]) + 1, "second": rows[1], "last": rows[-1],
+            "ratio": rows[-1]["sum"] / rows[1]["sum"], "sums": [r["sum"] for r in rows]}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.path.join(REPO, "build", "headline"))
@@ -177,6 +213,8 @@ def main():
         dl = cnn(args, "deeplabv3-mnv2-nyu13.efm")
         a = agreement(args)
         p = pipeline(args, work)
+        k = crf(args, work)
+        g = growth(args)
     load_after = os.getloadavg()[0]
     minutes = (time.monotonic() - t0 + args.setup_seconds) / 60
 
@@ -213,6 +251,15 @@ def main():
          f"{p['hz1']:.1f} / {p['hz2']:.1f} Hz", kitchen, f"bench/pipeline_hz.py's runs, median of {args.reps}"),
         ("Peak resident memory of that run, default 1,000,000-surfel pool, 2 threads", f"{p['rss2']:.0f} MB", kitchen,
          "same runs, stats.json peak_rss_bytes"),
+        (f"Dense CRF over that run's map: 10 iterations over its {k['nodes']:,} confident surfels (of {k['surfels']:,}), "
+         "one thread", f"{k['ms']:.0f} ms", kitchen, "bench_crf --checkpoint, median of 3"),
+        ("`run --crf-final` at the default pool and budget: the CRF's surfels, the plan",
+         f"{k['plan_nodes']:,}; {k['plan_mb']:.1f} of {k['budget_mb']:.0f} MB", f"real: 7-Scenes kitchen (its model)",
+         "edgefusion plan --crf-final"),
+        (f"SLAM cost as the map grows: median per frame, last 1,000 of {g['frames']:,} frames / frames 1,000-1,999",
+         f"{g['last']['sum']:.2f} / {g['second']['sum']:.2f} ms ({g['ratio']:.2f}x; "
+         f"{g['second']['surfels'] / 1000:.0f}k -> {g['last']['surfels'] / 1000:.0f}k surfels)",
+         "synthetic: a robot's path in a random room (seed 5001), 320x240", "bench/slam_growth.sh"),
     ]
     table = "| figure | value | data | measured by |\n|---|---|---|---|\n"
     for r in rows:
@@ -246,6 +293,9 @@ in this one run; rerun the script when a change can move one of them.
 - Pipeline: two threads / one thread, side by side per repetition, median {p['ratio']:.2f}x; two-thread
   rates {", ".join(f"{v:.1f}" for v in p['all_hz2'])} Hz; peak RSS with one thread {p['rss1']:.0f} MB;
   {p['lost']} frames lost.
+- Growth (`bench/slam_growth.sh`): median SLAM sum per 1,000 frames
+  {", ".join(f"{v:.2f}" for v in g['sums'])} ms; predict visited {g['second']['blocks']}% of the pool's blocks in
+  frames 1,000-1,999 and {g['last']['blocks']}% in the last 1,000 (slam/surfel_pool.h, block bounds).
 """
     with open(os.path.join(REPO, "docs", "headline.md"), "w") as f:
         f.write(md)

@@ -9,14 +9,17 @@
 #   --reps R      repetitions of the end-to-end runs (default 3; medians are quoted)
 #   --no-readme   write docs/headline.md only
 #
-# What it does (about 12 minutes on 2 cores from a clean clone, the build included):
+# What it does (about 17 minutes on 2 cores from a clean clone, the build included):
 #   1. installs the test packages (scripts/install-deps.sh test: Open3D, XNNPACK) and builds the
-#      release preset's `edgefusion`, `bench_nn_conv` and `bench_nn_model` (tests off) in build/headline
+#      release preset's `edgefusion`, `bench_nn_conv`, `bench_nn_model`, `bench_slam_stages` and
+#      `bench_crf` (tests off) in build/headline
 #   2. bench/headline.py: the SLAM against Open3D's odometry (bench/slam_vs_open3d.sh, one thread
 #      each, ATE of both), the CNN's convolutions against XNNPACK and the whole forward pass
 #      (bench_nn_conv / bench_nn_model on the shipped model), the end-to-end rate and peak memory of
-#      `edgefusion run` with one and two threads (bench/pipeline_hz.py's runs); the machine, the load
-#      and the commit are printed with them.
+#      `edgefusion run` with one and two threads (bench/pipeline_hz.py's runs), the dense CRF over the
+#      map of one of those runs (bench_crf --checkpoint) and the CRF's plan at the default pool, and
+#      the SLAM's cost as a 10,000-frame synthetic map grows (bench/slam_growth.sh); the machine, the
+#      load and the commit are printed with them.
 # Needs ../shared/data/7scenes-redkitchen (real Kinect frames); without it, it stops and says so.
 # Timings mean something only on otherwise idle cores: the load average is recorded.
 set -euo pipefail
@@ -31,6 +34,6 @@ if [ ! -d ../shared/data/7scenes-redkitchen ] && [ -z "${EF_SHARED_DATA:-}" ]; t
 fi
 bash scripts/install-deps.sh test >&2
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DEF_BUILD_TESTS=OFF -DEF_BUILD_BENCH=ON >/dev/null
-cmake --build "$build" -j "$jobs" --target edgefusion bench_nn_conv bench_nn_model >&2
+cmake --build "$build" -j "$jobs" --target edgefusion bench_nn_conv bench_nn_model bench_slam_stages bench_crf >&2
 echo "headline: built in $((SECONDS - start)) s" >&2
 exec /usr/bin/python3 bench/headline.py --build "$build" --setup-seconds "$((SECONDS - start))" "$@"
