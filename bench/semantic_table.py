@@ -3,7 +3,7 @@
 (SF) and the fused map with the dense CRF (SF-CRF), per class, class average, pixel average and mIoU.
 
 Every number comes from the `edgefusion` program:
-  convert   synthetic:random?seed=S&trajectory=loop&frames=N at 320x240 -> a TUM folder with labels/
+  convert   synthetic:random?seed=S&trajectory=loop&frames=N at 320x240 (--resolution) -> a TUM folder with labels/
   segment   the single-frame CNN on every K-th frame                       -> CNN/labels/<stem>.png
   run       the mapper, CNN fused every --label-every frames, the map's labels rendered into every
             K-th frame with the CNN as fallback ("captured immediately", as the paper)  -> SF/
@@ -28,7 +28,7 @@ a model trained on that camera (python3 -m edgefusion_models.train --camera kine
 
   /usr/bin/python3 bench/semantic_table.py --edgefusion build/release/firmware_app/edgefusion \\
       --work /tmp/semantic-table [--seeds 5001 5002 5003 | --rooms ROOM...] [--trajectory loop|robot|inspect] \\
-      [--frames 1200] [--every 10] [--crf-every 500] [--model FILE.efm] [--camera ideal|kinect]
+      [--frames 1200] [--every 10] [--crf-every 500] [--model FILE.efm] [--camera ideal|kinect] [--resolution WxH]
 Prints a Markdown table (per sequence and the mean of the sequences).
 """
 import argparse
@@ -72,6 +72,8 @@ def main():
     ap.add_argument("--trajectory", choices=["loop", "robot", "inspect"], default="loop",
                     help="camera path of the rendered sequences (default the hand-held loop)")
     ap.add_argument("--frames", type=int, default=1200)
+    ap.add_argument("--resolution", default="320x240",
+                    help="the sequences' size and the runs' working resolution (e.g. 160x120 for the smallest boards)")
     ap.add_argument("--every", type=int, default=10, help="evaluate every K-th frame (and fuse every K-th)")
     ap.add_argument("--crf-every", type=int, default=500, help="SF-CRF: CRF every M frames (paper: 500)")
     ap.add_argument("--run-config", default="",
@@ -102,7 +104,8 @@ def main():
     sequences = list(args.sequences)
     if not sequences:
         suffix = "" if args.trajectory == "loop" else "-" + args.trajectory
-        camera = "" if args.camera == "ideal" else "&size=320x240&camera=" + args.camera
+        suffix += "" if args.resolution == "320x240" else "-" + args.resolution
+        camera = "" if args.camera == "ideal" else f"&size={args.resolution}&camera=" + args.camera
         suffix += "" if args.camera == "ideal" else "-" + args.camera
         camera += "" if args.layout == "walls" else "&layout=" + args.layout
         suffix += "" if args.layout == "walls" else "-" + args.layout
@@ -116,7 +119,7 @@ def main():
             folder = os.path.join(args.work, name)
             if not os.path.exists(os.path.join(folder, "done")):
                 print(f"rendering {uri}", file=sys.stderr)
-                run([ef, "convert", "--source", uri, "--resolution", "320x240", "--to", "tum:" + folder, "--quiet"])
+                run([ef, "convert", "--source", uri, "--resolution", args.resolution, "--to", "tum:" + folder, "--quiet"])
                 open(os.path.join(folder, "done"), "w").close()
             sequences.append(folder)
 
@@ -136,7 +139,8 @@ def main():
         for method, extra in (("SF", []), ("SF-CRF", crf)):
             print(f"{name}: {method}", file=sys.stderr)
             d = os.path.join(out, method.lower())
-            cmd = [ef, "run", "--source", "tum:" + gt, "--out", d, "--label-every", str(args.every),
+            cmd = [ef, "run", "--source", "tum:" + gt, "--resolution", args.resolution, "--out", d,
+                   "--label-every", str(args.every),
                    "--labels-out", os.path.join(d, "labels"), "--labels-out-every", str(args.every),
                    "--labels-final-out", os.path.join(d, "labels-end"), "--overwrite", "--quiet"] + run_config + model + extra
             # A run whose outputs exist from the same command line (and the same binary) is reused.

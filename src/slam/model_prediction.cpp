@@ -447,12 +447,13 @@ struct BlockCull {
   double a[6][3];
   double d[6];
   // Whether some point of the block's box passes every half-space (the box's corner furthest along
-  // each normal); an empty box (no surfel) never does.
+  // each normal). A box with a NaN bound passes (visited, never wrongly skipped); no block below
+  // SurfelPool::blocks() is empty.
   bool may_see(const SurfelPool::BlockBounds& b) const {
     for (int p = 0; p < 6; ++p) {
       double s = d[p] + kCullMarginM;
       for (int k = 0; k < 3; ++k) s += a[p][k] * (a[p][k] >= 0 ? b.hi[k] : b.lo[k]);
-      if (s < 0) return false;  // also for -inf (an empty box); NaN passes
+      if (s < 0) return false;
     }
     return true;
   }
