@@ -13,8 +13,9 @@ const opt::Table<RunOptions>& RunOptions::table() {
   static const opt::Table<RunOptions> t = {
       {"source", "", "--source", &RunOptions::source, "a source URI", opt::any(),
        "frame source URI (edgefusion run --help lists them)"},
-      {"resolution", "", "--resolution", &RunOptions::resolution, "pixels", opt::between(8, 8192),
-       "working resolution of tracking and label fusion, WIDTHxHEIGHT"},
+      {"resolution", "", "--resolution", &RunOptions::resolution, "pixels", opt::between(32, 8192),
+       "working resolution of tracking and label fusion, WIDTHxHEIGHT (at least 32x32: the tracker's coarsest "
+       "level, a quarter of it, must be 8x8; 160x120 for the smallest boards)"},
       {"frames", "", "--frames", &RunOptions::frames, "frames", opt::at_least(1).or_value(-1, "all the source has"),
        "how many to process, from the first"},
       {"out", "", "--out", &RunOptions::out, "a folder", opt::any(),

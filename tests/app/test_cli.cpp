@@ -44,6 +44,18 @@ TEST(Cli, UnknownOptionsAndBadValuesNameTheOption) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--resolution"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("320by240"), std::string::npos) << r.err;
+  // Under 32 pixels a side the tracker's coarsest level would be under 8x8: refused by run and plan
+  // alike, naming the option and the limit (issue 33: it used to fail inside the tracker).
+  for (const char* command : {"run", "plan"}) {
+    r = cli({command, "--source", "synthetic:?frames=2", "--out", "/tmp/x", "--resolution", "32x24"});
+    EXPECT_EQ(r.code, 2) << command;
+    EXPECT_NE(r.err.find("--resolution"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("32..8192"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("Tracker"), std::string::npos) << r.err;
+  }
+  r = cli({"run", "--source", "synthetic:?frames=3", "--resolution", "32x32", "--out",
+           test::scratch_dir("cli-smallest").string(), "--quiet"});
+  EXPECT_EQ(r.code, 0) << r.err;  // the limit itself maps
 
   r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--frames", "ten"});
   EXPECT_EQ(r.code, 2);
