@@ -268,6 +268,12 @@ int cmd_run(int argc, char** argv) {
               outcome.seconds > 0 ? static_cast<double>(outcome.frames) / outcome.seconds : 0.0,
               static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.relocalisations()),
               static_cast<long long>(slam.pool().size()), static_cast<int>(slam.keyframes().size()));
+  const slam::SurfelPoolCounters& pool = slam.pool().counters();
+  if (pool.evicted + pool.refused > 0)
+    std::printf("surfel pool full (%lld surfels, mapping.surfel_capacity): %llu evicted (unseen longest), %llu "
+                "refused\n",
+                static_cast<long long>(slam.pool().capacity()), static_cast<unsigned long long>(pool.evicted),
+                static_cast<unsigned long long>(pool.refused));
   if (files.wrote_trajectory && files.trajectory_corrected + files.trajectory_kept > 0)
     std::printf("trajectory: %s (%lld poses corrected by loop closure, %lld older ones as tracked)\n",
                 files.trajectory.c_str(), static_cast<long long>(files.trajectory_corrected),
@@ -276,6 +282,11 @@ int cmd_run(int argc, char** argv) {
     std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
   if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());
+  if (!config.labels.out.empty()) {
+    const int written = stats.counter_id("label_images_written");
+    std::printf("labels: %s (%llu images, every %d frames)\n", config.labels.out.c_str(),
+                static_cast<unsigned long long>(written >= 0 ? stats.counter(written) : 0), config.labels.out_every);
+  }
   if (files.wrote_log)
     std::printf("log: %s (%llu frames)\n", files.log.c_str(), static_cast<unsigned long long>(files.log_frames));
   // The final map's labels in the recording's frames: a second reading, after the outputs are safe.

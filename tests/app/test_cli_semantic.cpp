@@ -52,6 +52,10 @@ TEST(CliSemantic, RunFusesLabelsRendersThemAndWritesClassColumns) {
                 "--labels-out", (dir / "labels").string(), "--labels-out-every", "4", "--out", (dir / "run").string(),
                 "--deterministic", "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
+  // The label folder is among the paths printed at the end (issue 33, rough edge 11).
+  EXPECT_NE(r.out.find("labels: " + (dir / "labels").string() + " (3 images, every 4 frames)"), std::string::npos)
+      << r.out;
+  EXPECT_EQ(r.out.find("surfel pool full"), std::string::npos) << r.out;
 
   // Label images for frames 0, 4 and 8, named as the source names its frames.
   auto source = open_source(uri);
@@ -276,6 +280,22 @@ TEST(CliSemantic, CrfEveryMFramesAndAtTheEnd) {
     changed += with->class_id[i] != without->class_id[i] || with->class_prob[i] != without->class_prob[i];
   }
   EXPECT_GT(changed, with->size() / 10) << changed << " of " << with->size();
+}
+
+// A pool too small for the view: warned once when it fills, and the summary says how many surfels
+// the full pool evicted and refused (issue 33, rough edge 4).
+TEST(CliSemantic, AFullPoolIsWarnedAndSummarised) {
+  const auto dir = test::scratch_dir("cli-pool-full");
+  auto r = cli({"run", "--source", "synthetic:?frames=4&size=160x120", "--resolution", "160x120", "--no-labels",
+                "--surfel-capacity", "5000", "--out", (dir / "run").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: the surfel pool is full (5000 surfels"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("warning: the surfel pool is full", r.err.find("warning: the surfel pool is full") + 1),
+            std::string::npos)
+      << "warned more than once: " << r.err;
+  const auto line = r.out.find("surfel pool full (5000 surfels, mapping.surfel_capacity): ");
+  ASSERT_NE(line, std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" refused", line), std::string::npos) << r.out;
 }
 
 TEST(CliSemantic, OptionErrorsNameTheOptionOrKey) {
