@@ -371,6 +371,8 @@ class SurfelFusion {
                   int by, bool in_base, WindowScan* ws, FusionStats& st);
   void scan_window(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool, const PixelContext& px,
                    WindowScan* ws, FusionStats& st);
+  void scan_unit_window(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool, const PixelContext& px,
+                        WindowScan* ws, FusionStats& st);
   void merge_duplicates(SurfelPool& pool, const WindowScan& ws, float z, FusionStats& st);
   void clean(const IndexMap& index, SurfelPool& pool, int32_t frame_index, FusionStats& st);
   void create_new(const FrameContext& fc, SurfelPool& pool, int32_t frame_index, FusionStats& st);
