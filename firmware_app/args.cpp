@@ -58,6 +58,9 @@ bool wants_help(int argc, char** argv, int first) {
 Result<ParsedArgs> parse_args(const std::string& command, const std::vector<OptionSpec>& specs,
                               int positional_count, int argc, char** argv, int first) {
   ParsedArgs out;
+  // The caller reports errors prefixed with the command's name (report_error): the messages name the
+  // option only, and point at the command's help.
+  const std::string help = " (see " + command + " --help)";
   for (int i = first; i < argc; ++i) {
     std::string arg = argv[i];
     if (arg.size() > 2 && arg.compare(0, 2, "--") == 0) {
@@ -71,29 +74,30 @@ Result<ParsedArgs> parse_args(const std::string& command, const std::vector<Opti
       const OptionSpec* spec = nullptr;
       for (const auto& s : specs)
         if (s.name == arg) spec = &s;
-      if (!spec) return error(ErrorCode::kInvalidArgument, command + ": unknown option '" + arg + "' (see --help)");
-      if (out.has(arg)) return error(ErrorCode::kInvalidArgument, command + ": option '" + arg + "' given twice");
+      if (!spec) return error(ErrorCode::kInvalidArgument, "unknown option '" + arg + "'" + help);
+      if (out.has(arg)) return error(ErrorCode::kInvalidArgument, "option '" + arg + "' given twice");
       if (spec->value_name.empty()) {
-        if (inline_value) return error(ErrorCode::kInvalidArgument, command + ": option '" + arg + "' takes no value");
+        if (inline_value) return error(ErrorCode::kInvalidArgument, "option '" + arg + "' takes no value");
       } else if (!inline_value) {
         if (i + 1 >= argc)
-          return error(ErrorCode::kInvalidArgument, command + ": option '" + arg + "' needs a value " + spec->value_name);
+          return error(ErrorCode::kInvalidArgument, "option '" + arg + "' needs a value " + spec->value_name);
         value = argv[++i];
       }
       out.values_.emplace_back(arg, value);
     } else if (arg.size() > 1 && arg[0] == '-' && !(arg[1] >= '0' && arg[1] <= '9')) {
-      return error(ErrorCode::kInvalidArgument, command + ": unknown option '" + arg + "' (see --help)");
+      return error(ErrorCode::kInvalidArgument, "unknown option '" + arg + "'" + help);
     } else {
       out.positionals_.push_back(arg);
     }
   }
   for (const auto& s : specs)
     if (s.required && !out.has(s.name))
-      return error(ErrorCode::kInvalidArgument, command + ": missing required option " + s.name + " " + s.value_name);
-  if (positional_count >= 0 && static_cast<int>(out.positionals_.size()) != positional_count)
-    return error(ErrorCode::kInvalidArgument, command + ": expected " + std::to_string(positional_count) +
-                                                  " arguments, got " + std::to_string(out.positionals_.size()) +
-                                                  " (see --help)");
+      return error(ErrorCode::kInvalidArgument, "missing required option " + s.name + " " + s.value_name + help);
+  if (positional_count >= 0 && static_cast<int>(out.positionals_.size()) != positional_count) {
+    const auto count = [](std::size_t n) { return std::to_string(n) + (n == 1 ? " argument" : " arguments"); };
+    return error(ErrorCode::kInvalidArgument, "expected " + count(static_cast<std::size_t>(positional_count)) +
+                                                  ", got " + std::to_string(out.positionals_.size()) + help);
+  }
   return out;
 }
 

@@ -35,10 +35,28 @@ TEST(Cli, HelpEverywhere) {
   }
 }
 
+// How often `needle` occurs in `text`.
+std::size_t occurrences(const std::string& text, const std::string& needle) {
+  std::size_t n = 0;
+  for (auto at = text.find(needle); at != std::string::npos; at = text.find(needle, at + needle.size())) ++n;
+  return n;
+}
+
 TEST(Cli, UnknownOptionsAndBadValuesNameTheOption) {
   auto r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--fast"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--fast"), std::string::npos) << r.err;
+  // The command is named once, as the line's prefix, and its help pointed at (issue 33, rough edge 9:
+  // "edgefusion eval rpe: error: invalid argument: edgefusion eval rpe: ...", "expected 1 arguments").
+  EXPECT_EQ(occurrences(r.err, "edgefusion run:"), 1u) << r.err;
+  EXPECT_NE(r.err.find("(see edgefusion run --help)"), std::string::npos) << r.err;
+  r = cli({"eval", "rpe", "a.txt", "b.txt"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(occurrences(r.err, "edgefusion eval rpe"), 2u) << r.err;  // the prefix and the help hint
+  EXPECT_NE(r.err.find("missing required option --delta-frames"), std::string::npos) << r.err;
+  r = cli({"model", "info"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("expected 1 argument, got 0"), std::string::npos) << r.err;
 
   r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--resolution", "320by240"});
   EXPECT_EQ(r.code, 2);
