@@ -54,8 +54,10 @@ Status write_surfel_ply(const std::string& path, const SurfelCloudView& cloud, c
       "property float x\nproperty float y\nproperty float z\n"
       "property float nx\nproperty float ny\nproperty float nz\n"
       "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-      "property float radius\nproperty float confidence\n"
-      "property uchar class_id\nproperty float class_prob\nend_header\n";
+      "property float radius\nproperty float confidence\n";
+  const bool classes = cloud.class_id.data != nullptr;
+  if (classes) header += "property uchar class_id\nproperty float class_prob\n";
+  header += "end_header\n";
   if (std::fwrite(header.data(), 1, header.size(), f.get()) != header.size())
     return error(ErrorCode::kIoError, path + ": header write failed: " + std::strerror(errno));
 
@@ -78,8 +80,10 @@ Status write_surfel_ply(const std::string& path, const SurfelCloudView& cloud, c
       *p++ = col_u8(cloud.blue, i);
       p = put_f32(p, col_f(cloud.radius, i));
       p = put_f32(p, col_f(cloud.confidence, i));
-      *p++ = col_u8(cloud.class_id, i);
-      p = put_f32(p, col_f(cloud.class_prob, i));
+      if (classes) {
+        *p++ = col_u8(cloud.class_id, i);
+        p = put_f32(p, col_f(cloud.class_prob, i));
+      }
     }
     const std::size_t bytes = static_cast<std::size_t>(p - buf);
     if (std::fwrite(buf, 1, bytes, f.get()) != bytes)
@@ -105,8 +109,10 @@ SurfelCloudView SurfelCloud::view() const {
   v.blue = blue.data();
   v.radius = radius.data();
   v.confidence = confidence.data();
-  v.class_id = class_id.data();
-  v.class_prob = class_prob.data();
+  if (has_classes) {
+    v.class_id = class_id.data();
+    v.class_prob = class_prob.data();
+  }
   return v;
 }
 
@@ -274,6 +280,8 @@ Result<SurfelCloud> read_surfel_ply(const std::string& path) {
     if (fcols[k]) fcols[k]->assign(n, 0.0f);
     if (ucols[k]) ucols[k]->assign(n, 0);
   }
+  c.has_classes = false;
+  for (const Prop& p : props) c.has_classes = c.has_classes || p.known == kClass;
   std::vector<unsigned char> rec(record);
   for (std::size_t i = 0; i < n; ++i) {
     if (!in.read(reinterpret_cast<char*>(rec.data()), static_cast<std::streamsize>(record)))

@@ -1,13 +1,13 @@
 // Surfel maps as binary little-endian PLY, readable by Open3D, MeshLab and CloudCompare.
 //
-// One `vertex` element per surfel, 40 bytes each, properties in this order:
+// One `vertex` element per surfel, 40 bytes each (35 without classes), properties in this order:
 //   float x y z          position, metres, world frame
 //   float nx ny nz       unit normal
 //   uchar red green blue sRGB colour
 //   float radius         surfel radius, metres
 //   float confidence     ElasticFusion confidence (accumulated weight)
-//   uchar class_id       most probable class (core/classes.h), 0 = unknown
-//   float class_prob     probability of class_id, [0, 1]
+//   uchar class_id       most probable class (core/classes.h), 0 = unknown   } only for a map with
+//   float class_prob     probability of class_id, [0, 1]                     } labels (a class_id column)
 #pragma once
 
 #include <cstddef>
@@ -33,7 +33,8 @@ struct Column {
 
 // A struct-of-arrays view of `count` surfels; nothing is copied. Interleaved storage works too:
 // for `float pos[N][3]` use x = {&pos[0][0], 12}, y = {&pos[0][1], 12}, z = {&pos[0][2], 12}.
-// x, y, z are required; a null optional column is written as zeros.
+// x, y, z are required; a null optional column is written as zeros, except class_id: without it
+// neither class property is written (a map without labels has no classes to give).
 struct SurfelCloudView {
   std::size_t count = 0;
   Column<float> x, y, z;             // metres
@@ -45,8 +46,9 @@ struct SurfelCloudView {
   Column<float> class_prob;          // [0, 1]
 };
 
-// Bytes per vertex record in the files this writer produces.
+// Bytes per vertex record in the files this writer produces, with and without the class properties.
 constexpr std::size_t kPlySurfelRecordBytes = 40;
+constexpr std::size_t kPlySurfelRecordBytesWithoutClasses = 35;
 
 // Writes the view to `path` (created or truncated; the parent folder must exist). Streams through
 // a fixed 64 KiB buffer. `comment` (optional, single line) is written as a header comment.
@@ -56,7 +58,9 @@ Status write_surfel_ply(const std::string& path, const SurfelCloudView& cloud, c
 struct SurfelCloud {
   std::vector<float> x, y, z, nx, ny, nz, radius, confidence, class_prob;
   std::vector<uint8_t> red, green, blue, class_id;
+  bool has_classes = true;  // the file had a class_id property (else class_id and class_prob are zeros)
   std::size_t size() const { return x.size(); }
+  // The columns; without classes (has_classes false) no class_id column, as the file was.
   SurfelCloudView view() const;
 };
 

@@ -390,7 +390,18 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   if (config_.output.checkpoint_seconds > 0 && !outcome.error) {
     if (Status s = checkpoint(outcome.seconds); !s.ok()) out.errors.push_back(s.error());
   }
-  if (config_.run.map) {
+  // Nothing mapped (this session or a resumed one): no map and no trajectory to give, and a run that
+  // did nothing did not work (a recording opened with the wrong size=, an empty source).
+  const bool mapped = slam.frames() > 0;
+  if (!mapped) {
+    std::error_code ec;
+    if (out.wrote_trajectory) std::filesystem::remove(out.trajectory, ec);  // its header alone
+    out.wrote_trajectory = false;
+    if (!outcome.error)
+      out.errors.push_back(error(ErrorCode::kNotFound, config_.run.source + ": no frame was mapped (the source gave "
+                                                                          "none): no map or trajectory written"));
+  }
+  if (config_.run.map && mapped) {
     const std::string comment =
         "edgefusion map of " + config_.run.source + ", " + std::to_string(outcome.frames) + " frames";
     SurfelCloudView cloud = slam::surfel_cloud_view(slam.pool());

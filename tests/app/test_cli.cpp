@@ -215,6 +215,16 @@ TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
            (dir / "klgrun").string(), "--quiet"}));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(read_file(dir / "klgrun" / "stats.json").find("\"frames\":3"), std::string::npos);
+
+  // The same recording opened with the wrong size maps nothing: an error, and no empty map or
+  // header-only trajectory (issue 33, rough edge 3); stats.json says why.
+  r = cli(run_args({"run", "--source", "klg:" + (dir / "seq.klg").string() + "?size=320x240", "--resolution", "160x120",
+                    "--out", (dir / "wrongsize").string(), "--quiet"}));
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_NE(r.err.find("is the size right"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "wrongsize" / "map.ply"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "wrongsize" / "trajectory.txt"));
+  EXPECT_NE(read_file(dir / "wrongsize" / "stats.json").find("\"state\":\"failed"), std::string::npos);
 }
 
 // A source that fails mid-run: the frames already processed keep their outputs.

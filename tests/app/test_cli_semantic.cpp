@@ -296,6 +296,11 @@ TEST(CliSemantic, AFullPoolIsWarnedAndSummarised) {
   const auto line = r.out.find("surfel pool full (5000 surfels, mapping.surfel_capacity): ");
   ASSERT_NE(line, std::string::npos) << r.out;
   EXPECT_NE(r.out.find(" refused", line), std::string::npos) << r.out;
+  // --no-labels: the map has no class properties (rough edge 3).
+  auto map = read_surfel_ply((dir / "run" / "map.ply").string());
+  ASSERT_TRUE(map.ok()) << to_string(map.error());
+  EXPECT_FALSE(map->has_classes);
+  EXPECT_GT(map->size(), 0u);
 }
 
 TEST(CliSemantic, OptionErrorsNameTheOptionOrKey) {

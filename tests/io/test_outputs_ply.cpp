@@ -113,6 +113,40 @@ TEST(OutputsPly, RoundTripIsExact) {
   EXPECT_EQ(slurp(path2), bytes);
 }
 
+// Without a class_id column (a map without labels) neither class property is written: 35-byte
+// records, read back as zeros with has_classes false, and rewritten byte for byte (issue 33, rough
+// edge 3: --no-labels wrote class columns of zeros).
+TEST(OutputsPly, NoClassColumnsWithoutClasses) {
+  const Fixture f;
+  SurfelCloudView v = f.view();
+  v.class_id = {};
+  v.class_prob = {};
+  const std::string path = (test::scratch_dir("ply_noclass") / "map.ply").string();
+  ASSERT_TRUE(write_surfel_ply(path, v, "run 7").ok());
+  const std::string bytes = slurp(path);
+  std::string header = kExpectedHeader;
+  const auto cls = header.find("property uchar class_id\n");
+  header.erase(cls, header.find("end_header") - cls);
+  ASSERT_EQ(bytes.substr(0, header.size()), header);
+  EXPECT_EQ(bytes.size(), header.size() + 5 * kPlySurfelRecordBytesWithoutClasses);
+  auto c = read_surfel_ply(path);
+  ASSERT_TRUE(c.ok()) << to_string(c.error());
+  EXPECT_FALSE(c->has_classes);
+  ASSERT_EQ(c->size(), 5u);
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(c->confidence[i], f.conf[i]);
+    EXPECT_EQ(c->class_id[i], 0);
+  }
+  const std::string path2 = (test::scratch_dir("ply_noclass2") / "map.ply").string();
+  ASSERT_TRUE(write_surfel_ply(path2, c->view(), "run 7").ok());
+  EXPECT_EQ(slurp(path2), bytes);
+  // A file with classes reads back with them.
+  ASSERT_TRUE(write_surfel_ply(path2, f.view()).ok());
+  auto with = read_surfel_ply(path2);
+  ASSERT_TRUE(with.ok());
+  EXPECT_TRUE(with->has_classes);
+}
+
 TEST(OutputsPly, LargeCloudSpansChunksAndEmptyCloud) {
   const int n = 5000;  // > one 64 KiB chunk of 40-byte records
   std::vector<float> x(n), y(n), z(n);
