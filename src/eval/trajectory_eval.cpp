@@ -139,8 +139,10 @@ Result<RpeResult> evaluate_rpe(const Trajectory& gt, const Trajectory& est, int 
 namespace {
 std::string cut_warnings(const Trajectory& gt, const Trajectory& est) {
   std::string w;
-  for (const Trajectory* t : {&gt, &est})
+  for (const Trajectory* t : {&gt, &est}) {
     if (t->cut_line != 0) w += t->cut_line_warning() + "\n";
+    if (t->duplicates != 0) w += t->duplicate_warning() + "\n";
+  }
   return w;
 }
 }  // namespace

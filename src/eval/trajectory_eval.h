@@ -34,7 +34,7 @@ struct AteResult {
   int pairs = 0;                // associated poses used
   SE3 T_gt_est;                 // alignment applied to the estimate: p_gt ~ T_gt_est * p_est
   std::vector<double> errors_m; // per associated pair, in ground-truth time order
-  std::string warnings;         // from the *_files readers: a cut last line left out (one per line)
+  std::string warnings;         // from the *_files readers: a cut last line left out, repeated timestamps (one per line)
 };
 
 // Errors (naming both trajectories' sources): fewer than 3 associated pairs, max_dt < 0.
@@ -49,7 +49,7 @@ struct RpeResult {
   double rot_mean_deg = 0;
   double rot_max_deg = 0;
   int pairs = 0;  // relative-pose pairs (i, i + delta) evaluated
-  std::string warnings;  // from the *_files readers: a cut last line left out (one per line)
+  std::string warnings;  // from the *_files readers: a cut last line left out, repeated timestamps (one per line)
 };
 
 // delta_frames counts associated poses in estimate order (pose i against pose i + delta among the

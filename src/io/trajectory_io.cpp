@@ -74,9 +74,16 @@ Status parse_line(const std::string& line, const std::string& path, int line_no,
   const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // (w, x, y, z)
   const double qn = q.norm();
   if (!(qn > 1e-9)) return error(ErrorCode::kCorruptData, where(path, line_no) + "zero quaternion");
+  if (!traj.poses.empty() && v[0] == traj.poses.back().timestamp) {
+    // The same instant twice: the later line wins (the TUM tools' dictionary keeps the last).
+    if (traj.duplicates++ == 0) traj.first_duplicate_line = line_no;
+    traj.poses.back() = TimedPose{v[0], SE3(q, Eigen::Vector3d(v[1], v[2], v[3])), next_lost};
+    next_lost = false;
+    return Status::success();
+  }
   if (!traj.poses.empty() && !(v[0] > traj.poses.back().timestamp)) {
     char buf[96];
-    std::snprintf(buf, sizeof buf, "timestamp %.6f is not after the previous one (%.6f)", v[0],
+    std::snprintf(buf, sizeof buf, "timestamp %.6f is before the previous one (%.6f)", v[0],
                   traj.poses.back().timestamp);
     return error(ErrorCode::kCorruptData, where(path, line_no) + buf);
   }
@@ -91,6 +98,13 @@ std::string Trajectory::cut_line_warning() const {
   if (cut_line == 0) return {};
   return source + ":" + std::to_string(cut_line) +
          ": the last line was cut while the file was written (no newline, not a whole pose); left out";
+}
+
+std::string Trajectory::duplicate_warning() const {
+  if (duplicates == 0) return {};
+  return source + ":" + std::to_string(first_duplicate_line) + ": " + std::to_string(duplicates) +
+         (duplicates == 1 ? " pose line repeats" : " pose lines repeat") +
+         " the previous line's timestamp; the later pose kept (as the TUM tools do)";
 }
 
 Result<Trajectory> read_tum_trajectory(const std::string& path) {

@@ -29,11 +29,17 @@ struct Trajectory {
   // valid pose line); it was left out. 0: none. Readers say so (cut_line_warning()).
   int cut_line = 0;
   std::string cut_line_warning() const;  // empty when cut_line == 0
+  // Pose lines whose timestamp equalled the previous one's (TUM fr2/desk's ground truth has one): the
+  // later line replaced the earlier, as the TUM benchmark's tools keep the last. first_duplicate_line:
+  // the 1-based line of the first. Readers say so (duplicate_warning()).
+  int duplicates = 0;
+  int first_duplicate_line = 0;
+  std::string duplicate_warning() const;  // empty when duplicates == 0
 };
 
 // Reads a TUM trajectory. Errors name the file and the 1-based line: a field that is not a finite
-// number, a line without exactly 8 fields, a zero quaternion, a timestamp not strictly greater than
-// the previous one. An empty file (no poses) is not an error here; evaluators reject it. A last line
+// number, a line without exactly 8 fields, a zero quaternion, a timestamp smaller than the previous
+// one (an equal one replaces the previous pose: Trajectory::duplicates). An empty file (no poses) is not an error here; evaluators reject it. A last line
 // without its newline that is not a valid pose line is what a writer killed mid-line leaves: it is
 // left out and named in Trajectory::cut_line, not an error (one with its newline is an error).
 Result<Trajectory> read_tum_trajectory(const std::string& path);
