@@ -32,6 +32,17 @@ void print_eval_help() {
       "GT and EST trajectories are TUM files (timestamp tx ty tz qx qy qz qw, camera to world).\n");
 }
 
+// --max-dt: poses pair when their times differ by less than it, so 0 would pair none (not even
+// equal times): refused, as anything outside (0, 10] s.
+Result<double> positive_max_dt(const ParsedArgs& args) {
+  auto v = args.get_double("--max-dt", 0.02, 0.0, 10.0);
+  if (v.ok() && !(*v > 0.0))
+    return error(ErrorCode::kInvalidArgument, "--max-dt " + args.get("--max-dt") +
+                                                  ": poses pair when their times differ by less than this; give a "
+                                                  "positive number of seconds (default 0.02)");
+  return v;
+}
+
 int eval_ate(int argc, char** argv) {
   constexpr const char* kCmd = "edgefusion eval ate";
   if (wants_help(argc, argv, 3)) {
@@ -43,7 +54,7 @@ int eval_ate(int argc, char** argv) {
   }
   auto args = parse_args(kCmd, kAteOptions, 2, argc, argv, 3);
   if (!args.ok()) return report_error(kCmd, args.error(), 2);
-  auto max_dt = args->get_double("--max-dt", 0.02, 0.0, 10.0);
+  auto max_dt = positive_max_dt(*args);
   if (!max_dt.ok()) return report_error(kCmd, max_dt.error(), 2);
   auto r = evaluate_ate_files(args->positionals()[0], args->positionals()[1], *max_dt);
   if (!r.ok()) return report_error(kCmd, r.error(), 1);
@@ -64,7 +75,7 @@ int eval_rpe(int argc, char** argv) {
   if (!args.ok()) return report_error(kCmd, args.error(), 2);
   auto delta = args->get_int("--delta-frames", 1, 1, 1000000);
   if (!delta.ok()) return report_error(kCmd, delta.error(), 2);
-  auto max_dt = args->get_double("--max-dt", 0.02, 0.0, 10.0);
+  auto max_dt = positive_max_dt(*args);
   if (!max_dt.ok()) return report_error(kCmd, max_dt.error(), 2);
   auto r = evaluate_rpe_files(args->positionals()[0], args->positionals()[1], static_cast<int>(*delta), *max_dt);
   if (!r.ok()) return report_error(kCmd, r.error(), 1);

@@ -73,7 +73,7 @@ SE3 align_rigid(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen
 }
 
 Result<AteResult> evaluate_ate(const Trajectory& gt, const Trajectory& est, double max_dt) {
-  if (!(max_dt >= 0)) return error(ErrorCode::kInvalidArgument, "ATE: max_dt must be >= 0 seconds");
+  if (!(max_dt > 0)) return error(ErrorCode::kInvalidArgument, "ATE: max_dt must be > 0 seconds (0 pairs nothing)");
   const auto matches = associate_timestamps(gt.poses, est.poses, max_dt);
   if (matches.size() < 3) {
     char buf[160];
@@ -103,7 +103,7 @@ Result<AteResult> evaluate_ate(const Trajectory& gt, const Trajectory& est, doub
 
 Result<RpeResult> evaluate_rpe(const Trajectory& gt, const Trajectory& est, int delta_frames, double max_dt) {
   if (delta_frames < 1) return error(ErrorCode::kInvalidArgument, "RPE: delta_frames must be >= 1");
-  if (!(max_dt >= 0)) return error(ErrorCode::kInvalidArgument, "RPE: max_dt must be >= 0 seconds");
+  if (!(max_dt > 0)) return error(ErrorCode::kInvalidArgument, "RPE: max_dt must be > 0 seconds (0 pairs nothing)");
   // Associate in estimate order: pairs are (est index, gt index).
   const auto matches = associate_timestamps(est.poses, gt.poses, max_dt);
   const int n = static_cast<int>(matches.size());

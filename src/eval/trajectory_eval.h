@@ -37,7 +37,7 @@ struct AteResult {
   std::string warnings;         // from the *_files readers: a cut last line left out, repeated timestamps (one per line)
 };
 
-// Errors (naming both trajectories' sources): fewer than 3 associated pairs, max_dt < 0.
+// Errors (naming both trajectories' sources): fewer than 3 associated pairs, max_dt <= 0 (pairs nothing).
 Result<AteResult> evaluate_ate(const Trajectory& gt, const Trajectory& est, double max_dt = 0.02);
 
 struct RpeResult {

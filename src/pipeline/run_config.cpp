@@ -284,6 +284,11 @@ Status RunConfig::validate(const std::vector<int>& cores) const {
   if (!labels.enabled && (!labels.out.empty() || !labels.final_out.empty() || crf.on()))
     return error(ErrorCode::kInvalidArgument,
                  "--labels-out, --labels-final-out and the CRF need labels: drop --no-labels (or 'labels: false')");
+  // A spacing for images no one asked for would be ignored without a word.
+  if (labels.out.empty() && labels.final_out.empty() && labels.out_every != LabelOptions{}.out_every)
+    return error(ErrorCode::kInvalidArgument, "--labels-out-every " + std::to_string(labels.out_every) +
+                                                  " (labels.out_every) spaces the label images of --labels-out DIR "
+                                                  "or --labels-final-out DIR: give one of them");
 
   // The machine: every pinned core must exist; all the keys that name a missing one, at once.
   std::string missing;

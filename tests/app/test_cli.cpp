@@ -57,6 +57,15 @@ TEST(Cli, UnknownOptionsAndBadValuesNameTheOption) {
   r = cli({"model", "info"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("expected 1 argument, got 0"), std::string::npos) << r.err;
+  // Values that would quietly do nothing (rough edge 10): --max-dt 0 pairs no poses, a label-image
+  // spacing without a label folder.
+  r = cli({"eval", "ate", "a.txt", "b.txt", "--max-dt", "0"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--max-dt 0: poses pair when"), std::string::npos) << r.err;
+  r = cli({"run", "--source", "synthetic:?frames=2", "--out", "/tmp/x", "--labels-out-every", "5"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--labels-out-every 5"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--labels-out DIR"), std::string::npos) << r.err;
 
   r = cli({"run", "--source", "synthetic:", "--out", "/tmp/x", "--resolution", "320by240"});
   EXPECT_EQ(r.code, 2);
