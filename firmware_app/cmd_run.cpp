@@ -125,6 +125,8 @@ class PanelObserver : public RunObserver {
   }
 
   void finish(int64_t frames) { progress_.finish(frames); }
+  // SIGINT / SIGTERM received so far (the run's stop was the first; one more stops a later pass).
+  int stop_signals() const { return stop_signal_.signals(); }
 
  private:
   int64_t now_ms() const {
@@ -294,14 +296,20 @@ int cmd_run(int argc, char** argv) {
     std::fprintf(stderr, "%s: rendering the final map's labels into %s, every %d frames\n", kCmd,
                  config.run.source.c_str(), config.labels.out_every);
     auto replay = open_source(config.run.source);
-    auto counts = replay.ok() ? pipeline.render_final_labels(**replay) : Result<FinalLabelCounts>(replay.error());
+    // A signal during this pass (a second one if the run itself was stopped by one) stops it now:
+    // the images so far are whole, the outputs above are already safe.
+    const int signals_before = panel.stop_signals();
+    const auto stop = [&panel, signals_before] { return panel.stop_signals() > signals_before; };
+    auto counts =
+        replay.ok() ? pipeline.render_final_labels(**replay, stop) : Result<FinalLabelCounts>(replay.error());
     if (!counts.ok()) {
       report_error(kCmd, counts.error(), 1);
       exit_code = 1;
     } else {
-      std::printf("final labels: %lld images in %s (%lld of lost frames: the CNN's labels; %lld frames not mapped)\n",
+      std::printf("final labels: %lld images in %s (%lld of lost frames: the CNN's labels; %lld frames not mapped)%s\n",
                   static_cast<long long>(counts->images_written), config.labels.final_out.c_str(),
-                  static_cast<long long>(counts->from_cnn_only), static_cast<long long>(counts->not_mapped));
+                  static_cast<long long>(counts->from_cnn_only), static_cast<long long>(counts->not_mapped),
+                  counts->stopped ? "; stopped by a signal" : "");
     }
   }
   return exit_code;

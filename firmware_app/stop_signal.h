@@ -1,7 +1,8 @@
 // SIGINT / SIGTERM as a request to stop: the run loop finishes the frame in hand, then writes the
 // map, the trajectory and the statistics and exits 0 (a systemd stop, or Ctrl-C, loses nothing
-// that was mapped). A second signal while stopping is ignored the same way; the outputs are still
-// written (they take at most seconds).
+// that was mapped). A second signal while the outputs are written is ignored (they take at most
+// seconds); the final-labels pass after them (--labels-final-out, a second reading of the recording)
+// stops at a signal that arrives during it (signals() counts them).
 //
 // Async-signal-safe: the handler only stores into a volatile sig_atomic_t.
 #pragma once
@@ -23,6 +24,8 @@ class StopSignalScope {
   bool stop_requested() const;
   // The signal number that asked to stop (0 if none).
   int signal_number() const;
+  // How many SIGINT / SIGTERM arrived since construction.
+  int signals() const;
 
  private:
   struct sigaction old_int_ {};

@@ -58,7 +58,7 @@ std::size_t FinalLabelBuffers::bytes() const {
 
 Result<FinalLabelCounts> render_final_labels(const RunOptions& run, const LabelOptions& labels, FrameSource& replay,
                                              const std::string& trajectory_path, const slam::SurfelSlam& slam,
-                                             RunSemantics& semantics) {
+                                             RunSemantics& semantics, const std::function<bool()>& stop) {
   auto trajectory = read_tum_trajectory(trajectory_path);  // lost frames come marked (io/trajectory_io.h)
   if (!trajectory.ok()) return trajectory.take_error();
 
@@ -76,9 +76,15 @@ Result<FinalLabelCounts> render_final_labels(const RunOptions& run, const LabelO
   FinalLabelCounts counts;
   std::size_t next_pose = 0;
   for (int64_t number = 0; run.frames < 0 || number < run.frames; ++number) {
+    if (stop && stop()) {
+      counts.stopped = true;
+      break;
+    }
     auto got = replay.next(input);
     if (!got.ok()) return got.take_error();
     if (!*got) break;
+    // Past the last frame the run mapped (it was stopped early): nothing more to render.
+    if (!poses.empty() && input.timestamp > poses.back().timestamp + kTimestampToleranceS) break;
     ++counts.frames_read;
     std::snprintf(line, sizeof line, "%lld images", static_cast<long long>(counts.images_written));
     progress.update(counts.frames_read, line);

@@ -25,6 +25,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "core/result.h"
@@ -61,6 +62,7 @@ struct FinalLabelCounts {
   int64_t images_written = 0;  // DIR/<name>.png files
   int64_t from_cnn_only = 0;   // images of frames the run had lost: the CNN's labels alone
   int64_t not_mapped = 0;      // due frames without a trajectory line (skipped, no image)
+  bool stopped = false;        // stop() said so: the pass ended early (the images so far are whole)
 };
 
 // replay: the recording, opened again at its start (a live camera cannot be read twice: the
@@ -69,8 +71,10 @@ struct FinalLabelCounts {
 // trajectory unreadable, a source error, a write failure.
 // run: the working resolution, max frames and the progress line; labels: out_every and the
 // folder (final_out).
+// The reading ends after the frame of the trajectory's last pose (a run stopped early mapped no more),
+// or when `stop` (if given) returns true, checked before each frame.
 Result<FinalLabelCounts> render_final_labels(const RunOptions& run, const LabelOptions& labels, FrameSource& replay,
                                              const std::string& trajectory_path, const slam::SurfelSlam& slam,
-                                             RunSemantics& semantics);
+                                             RunSemantics& semantics, const std::function<bool()>& stop = {});
 
 }  // namespace ef::pipeline

@@ -430,11 +430,12 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   return out;
 }
 
-Result<FinalLabelCounts> RunPipeline::render_final_labels(FrameSource& replay) {
+Result<FinalLabelCounts> RunPipeline::render_final_labels(FrameSource& replay, const std::function<bool()>& stop) {
   if (semantics_ == nullptr)
     return error(ErrorCode::kInvalidArgument, "--labels-final-out needs labels: drop --no-labels");
   const std::string trajectory = (std::filesystem::path(out_folder_) / "trajectory.txt").string();
-  return pipeline::render_final_labels(config_.run, config_.labels, replay, trajectory, mapping_->slam(), *semantics_);
+  return pipeline::render_final_labels(config_.run, config_.labels, replay, trajectory, mapping_->slam(), *semantics_,
+                                       stop);
 }
 
 }  // namespace ef::pipeline

@@ -48,6 +48,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -123,7 +124,7 @@ class RunPipeline {
   // After write_outputs(): the final map's labels in every labels_out_every-th frame of `replay`, the
   // same recording opened again, into labels.final_out (pipeline/final_labels.h).
   // Errors: a run without labels, and the pass's (they name the file or the frame).
-  Result<FinalLabelCounts> render_final_labels(FrameSource& replay);
+  Result<FinalLabelCounts> render_final_labels(FrameSource& replay, const std::function<bool()>& stop = {});
 
   const slam::SurfelSlam& slam() const { return mapping_->slam(); }
   const MappingStage& mapping() const { return *mapping_; }

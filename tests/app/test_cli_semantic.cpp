@@ -232,6 +232,36 @@ TEST(FinalLabels, MatchesFramesToTrajectoryLinesByTimestamp) {
   EXPECT_EQ(counts->images_written, 5);
   EXPECT_EQ(counts->not_mapped, 1);
   EXPECT_EQ(counts->from_cnn_only, 1);
+  EXPECT_FALSE(counts->stopped);
+
+  // A run stopped after frame 3 (its trajectory ends there): the reading stops after it instead of
+  // reading the whole recording (issue 33, rough edge 1).
+  {
+    std::ofstream out(trajectory);
+    out << "# timestamp tx ty tz qx qy qz qw\n";
+    for (std::size_t i = 0; i <= 3; ++i) {
+      char line[128];
+      std::snprintf(line, sizeof line, "%.6f 0 0 0 0 0 0 1\n", stamps[i]);
+      out << line;
+    }
+  }
+  replay = open_source(config.run.source);
+  ASSERT_TRUE(replay.ok());
+  counts = render_final_labels(config.run, config.labels, **replay, trajectory.string(), *slam, **semantics);
+  ASSERT_TRUE(counts.ok()) << to_string(counts.error());
+  EXPECT_EQ(counts->frames_read, 4);
+  EXPECT_EQ(counts->images_written, 4);
+  EXPECT_EQ(counts->not_mapped, 0);
+  // A stop request (a signal during the pass) ends it before the next frame; the images so far stay.
+  replay = open_source(config.run.source);
+  ASSERT_TRUE(replay.ok());
+  int asked = 0;
+  counts = render_final_labels(config.run, config.labels, **replay, trajectory.string(), *slam, **semantics,
+                               [&asked] { return ++asked > 2; });
+  ASSERT_TRUE(counts.ok()) << to_string(counts.error());
+  EXPECT_TRUE(counts->stopped);
+  EXPECT_EQ(counts->frames_read, 2);
+  EXPECT_EQ(counts->images_written, 2);
 }
 
 // The dense CRF runs every M frames and once more at the end; it changes the map's labels.

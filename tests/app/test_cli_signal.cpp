@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "app/cli_test_util.h"
+#include "firmware_app/stop_signal.h"
 #include "io/ply_writer.h"
 #include "io/trajectory_io.h"
 #include "test_support.h"
@@ -46,6 +47,25 @@ void check_stops_cleanly(int sig, const char* name) {
   if (n > 0) {
     EXPECT_GT(map->size(), 100u);
   }
+}
+
+// Each SIGINT / SIGTERM is counted, so that a pass after the run's own stop (the final labels) can
+// stop at the next one; the previous handlers come back with the scope's end.
+TEST(CliSignal, StopSignalsAreCountedInTheirScope) {
+  {
+    StopSignalScope scope;
+    EXPECT_FALSE(scope.stop_requested());
+    EXPECT_EQ(scope.signals(), 0);
+    std::raise(SIGTERM);
+    EXPECT_TRUE(scope.stop_requested());
+    EXPECT_EQ(scope.signal_number(), SIGTERM);
+    std::raise(SIGINT);
+    EXPECT_EQ(scope.signals(), 2);
+    EXPECT_EQ(scope.signal_number(), SIGINT);
+  }
+  StopSignalScope again;  // a new scope starts from none
+  EXPECT_EQ(again.signals(), 0);
+  EXPECT_FALSE(again.stop_requested());
 }
 
 TEST(CliSignal, SigtermMidRunWritesCompleteOutputs) { check_stops_cleanly(SIGTERM, "SIGTERM"); }
