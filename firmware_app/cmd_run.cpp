@@ -200,6 +200,10 @@ int cmd_run(int argc, char** argv) {
   if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
   report_warning(kCmd, (*source_or)->info().warning);
   FrameSource& source = **source_or;
+  if (source.info().intrinsics_assumed)
+    report_warning(kCmd, "the intrinsics are assumed: " + source.info().intrinsics_from +
+                             "; if the recording's camera differs, give them in the URI (?fx=..&fy=..&cx=..&cy=.., "
+                             "pixels at the recording's size) or, for a TUM folder, in intrinsics.txt");
   const SourceInfo& info = source.info();
   // The source against the configuration, the model and the memory plan, before anything large
   // exists (edgefusion plan prints the plan part by part).
@@ -232,6 +236,9 @@ int cmd_run(int argc, char** argv) {
                config.run.resolution.height, slam.predictor().intrinsics().fx,
                static_cast<long long>(config.mapping.pool.capacity),
                static_cast<double>(slam.pool_bytes()) / 1e6);
+  std::fprintf(stderr, "%s: intrinsics fx %.2f fy %.2f cx %.2f cy %.2f at %dx%d, from %s\n", kCmd, info.intrinsics.fx,
+               info.intrinsics.fy, info.intrinsics.cx, info.intrinsics.cy, info.intrinsics.width,
+               info.intrinsics.height, info.intrinsics_from.empty() ? "the device" : info.intrinsics_from.c_str());
   const int threads = config.pipeline.threads;
   const int slots = config.pipeline.slots();
   const char* layout = threads == 1   ? "front, CNN and mapping in turn on one thread"

@@ -25,6 +25,11 @@ struct SourceInfo {
   bool live = false;          // a camera: must never be blocked by processing
   std::string warning;        // what opening recovered from (a recording cut while written), for the
                               // user; empty when nothing
+  // Where the intrinsics came from, for the user ("intrinsics.txt", "the URI's fx, fy, cx, cy", ...;
+  // empty: the device or the format itself). intrinsics_assumed: a default that nothing in the
+  // recording or the URI gave (a .klg, a TUM folder without intrinsics.txt): `run` warns.
+  std::string intrinsics_from;
+  bool intrinsics_assumed = false;
 };
 
 class FrameSource {

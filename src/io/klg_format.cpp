@@ -322,6 +322,10 @@ Result<std::unique_ptr<FrameSource>> open_klg_input(std::unique_ptr<ByteInput> i
   info.intrinsics = Intrinsics{525.0f, 525.0f, 319.5f, 239.5f, 640, 480};
   if (width != 640 || height != 480) info.intrinsics = info.intrinsics.scaled_to(width, height);
   if (uri) EF_RETURN_IF_ERROR(text::apply_intrinsics_overrides(*uri, info.intrinsics));
+  // A .klg holds no calibration (ElasticFusion's format): the default, or what the URI gives.
+  const std::string klg_default = "the default of a Kinect v1 (fx 525, cx 319.5 at 640x480; a .klg holds none)";
+  if (uri) text::describe_intrinsics(*uri, klg_default, true, &info.intrinsics_from, &info.intrinsics_assumed);
+  else info.intrinsics_from = klg_default, info.intrinsics_assumed = true;
   info.frame_count = found;
   info.warning = warning;
   info.nominal_fps = 30;

@@ -78,6 +78,7 @@ class McapSource final : public FrameSource {
     info_.intrinsics = Intrinsics{static_cast<float>(calib.fx), static_cast<float>(calib.fy),
                                   static_cast<float>(calib.cx), static_cast<float>(calib.cy),
                                   static_cast<int>(calib.width), static_cast<int>(calib.height)};
+    info_.intrinsics_from = "the log's /camera/calibration";
     info_.frame_count = static_cast<int64_t>(frames_.size());
     info_.has_color = color != nullptr;
     info_.has_pose = reference != nullptr && !pose_at.empty();

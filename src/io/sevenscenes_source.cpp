@@ -232,6 +232,9 @@ Result<std::unique_ptr<FrameSource>> open_7scenes(const SourceUri& uri) {
   info.intrinsics.width = first.width();
   info.intrinsics.height = first.height();
   EF_RETURN_IF_ERROR(text::apply_intrinsics_overrides(uri, info.intrinsics));
+  const bool have_file = fs::exists(intr_file, ec);
+  text::describe_intrinsics(uri, have_file ? intr_file : "7-Scenes' published ones (fx 585, cx 320 at 640x480)",
+                            false, &info.intrinsics_from, &info.intrinsics_assumed);
   info.frame_count = int64_t(entries.size());
   info.nominal_fps = kFrameRate;
   info.has_pose = any_pose;

@@ -94,6 +94,21 @@ std::string quote_excerpt(std::string_view line) {
   return "'" + s + "'";
 }
 
+std::string intrinsics_override_keys(const SourceUri& uri) {
+  std::string keys;
+  for (const char* key : {"fx", "fy", "cx", "cy"})
+    if (uri.query.count(key) != 0) keys += (keys.empty() ? "" : ", ") + std::string(key);
+  return keys;
+}
+
+void describe_intrinsics(const SourceUri& uri, const std::string& base, bool base_is_default, std::string* from,
+                         bool* assumed) {
+  const std::string keys = intrinsics_override_keys(uri);
+  const bool all = keys == "fx, fy, cx, cy";
+  *from = all ? "the URI's fx, fy, cx, cy" : keys.empty() ? base : base + ", the URI's " + keys;
+  *assumed = base_is_default && !all;
+}
+
 Status apply_intrinsics_overrides(const SourceUri& uri, Intrinsics& k) {
   const char* keys[4] = {"fx", "fy", "cx", "cy"};
   float* dst[4] = {&k.fx, &k.fy, &k.cx, &k.cy};

@@ -56,5 +56,12 @@ std::string quote_excerpt(std::string_view line);
 // Applies the query keys fx, fy, cx, cy of `uri` (pixels; any subset) to `k`. A value that is not
 // a finite number, or fx/fy of 0, is a kInvalidArgument error naming the key.
 Status apply_intrinsics_overrides(const SourceUri& uri, Intrinsics& k);
+// Which of fx, fy, cx, cy the URI's query gives, as "fx, fy, cx, cy" (empty when none).
+std::string intrinsics_override_keys(const SourceUri& uri);
+// Where a source's intrinsics came from (SourceInfo::intrinsics_from / intrinsics_assumed): `base`
+// (the file or the default they started from), then the URI's keys over it; assumed when the base is
+// a default and the URI does not give all four.
+void describe_intrinsics(const SourceUri& uri, const std::string& base, bool base_is_default, std::string* from,
+                         bool* assumed);
 
 }  // namespace ef::text

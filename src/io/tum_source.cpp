@@ -284,6 +284,9 @@ Result<std::unique_ptr<FrameSource>> open_tum(const SourceUri& uri) {
       info.intrinsics = info.intrinsics.scaled_to(first.width(), first.height());
   }
   EF_RETURN_IF_ERROR(text::apply_intrinsics_overrides(uri, info.intrinsics));
+  const bool have_file = fs::exists(intr_file, ec);
+  text::describe_intrinsics(uri, have_file ? intr_file : "the default of a Kinect v1 (fx 525, cx 319.5 at 640x480)",
+                            !have_file, &info.intrinsics_from, &info.intrinsics_assumed);
   info.frame_count = int64_t(entries.size());
   if (entries.size() > 1) {
     const double span = entries.back().timestamp - entries.front().timestamp;

@@ -74,7 +74,8 @@ const char* source_uri_help() {
          "size=WxH, noise=0|1, camera=ideal|kinect, layout=walls|island), tum:DIR, 7scenes:DIR, klg:FILE[?size=WxH], mcap:FILE (a field log; query: depth=TOPIC, color=TOPIC), openni2:[DEVICE|FILE.oni] "
          "(query: size=WxH, fps, timeout_ms, registration=0|1, fx, fy, cx, cy), v4l2:/dev/videoN (query: "
          "format=rgb|z16, size=WxH, fps, timeout_ms, depth_scale, fx, fy, cx, cy); every recording also takes cut=A-B "
-         "(frames A..B left out) and blank=N+K (K blank frames before frame N)";
+         "(frames A..B left out) and blank=N+K (K blank frames before frame N), and tum:, 7scenes: and klg: take "
+         "fx, fy, cx, cy (pixels at the recording's size; a .klg holds none: 525, 319.5, 239.5 assumed)";
 }
 
 }  // namespace ef

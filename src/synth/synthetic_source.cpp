@@ -131,6 +131,7 @@ Result<std::unique_ptr<SyntheticSource>> open_synthetic_source(const SyntheticOp
   const Intrinsics K = synthetic_default_intrinsics().scaled_to(options.width, options.height);
   impl->info.uri = std::move(uri_text);
   impl->info.intrinsics = K;
+  impl->info.intrinsics_from = "the synthetic camera";
   impl->info.frame_count = options.frames;
   impl->info.nominal_fps = kFps;
   impl->info.has_pose = true;

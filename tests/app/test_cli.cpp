@@ -224,6 +224,8 @@ TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
            (dir / "klgrun").string(), "--quiet"}));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(read_file(dir / "klgrun" / "stats.json").find("\"frames\":3"), std::string::npos);
+  // A .klg carries no intrinsics: the run says which it assumed (issue 33, rough edge 2).
+  EXPECT_NE(r.err.find("warning: the intrinsics are assumed"), std::string::npos) << r.err;
 
   // The same recording opened with the wrong size maps nothing: an error, and no empty map or
   // header-only trajectory (issue 33, rough edge 3); stats.json says why.

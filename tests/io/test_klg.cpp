@@ -76,6 +76,18 @@ TEST(KlgReader, GoodSyntheticLogRawAndCompressed) {
   EXPECT_EQ((*src)->info().frame_count, 2);
   EXPECT_TRUE((*src)->info().has_color);
   EXPECT_FLOAT_EQ((*src)->info().intrinsics.fx, 525.f * 8 / 640);
+  // A .klg holds no intrinsics: the default is assumed, and said (issue 33, rough edge 2).
+  EXPECT_TRUE((*src)->info().intrinsics_assumed);
+  EXPECT_NE((*src)->info().intrinsics_from.find("a .klg holds none"), std::string::npos);
+  auto given = open_path(path, "?size=8x6&fx=6&fy=6&cx=4&cy=3");
+  ASSERT_TRUE(given.ok());
+  EXPECT_FALSE((*given)->info().intrinsics_assumed);
+  EXPECT_EQ((*given)->info().intrinsics_from, "the URI's fx, fy, cx, cy");
+  EXPECT_FLOAT_EQ((*given)->info().intrinsics.fx, 6.0f);
+  auto part = open_path(path, "?size=8x6&fx=6");
+  ASSERT_TRUE(part.ok());
+  EXPECT_TRUE((*part)->info().intrinsics_assumed);  // cx, cy still the default's
+  EXPECT_NE((*part)->info().intrinsics_from.find(", the URI's fx"), std::string::npos);
   Frame f;
   ASSERT_TRUE(*(*src)->next(f));
   EXPECT_FLOAT_EQ(f.depth(3, 3), 1.234f);

@@ -167,6 +167,18 @@ TEST(TumSource, WriterReaderRoundTripIsExact) {
   EXPECT_EQ(info.intrinsics.width, w);
   EXPECT_FLOAT_EQ(info.intrinsics.fy, -31.f);
   EXPECT_FLOAT_EQ(info.intrinsics.cx, 15.5f);
+  // From the folder's intrinsics.txt, not assumed; without it, the default, said (rough edge 2).
+  EXPECT_FALSE(info.intrinsics_assumed);
+  EXPECT_EQ(info.intrinsics_from, (dir / "intrinsics.txt").string());
+  {
+    const auto bare = test::scratch_dir("tum_roundtrip_bare");
+    write_folder(bare, 1, w, h);
+    fs::remove(bare / "intrinsics.txt");
+    auto plain = open_dir(bare);
+    ASSERT_TRUE(plain.ok()) << plain.error().message;
+    EXPECT_TRUE((*plain)->info().intrinsics_assumed);
+    EXPECT_NE((*plain)->info().intrinsics_from.find("Kinect v1"), std::string::npos);
+  }
   Frame f;
   f.allocate(w, h, true);
   const Rgb8* color_ptr = f.color.data();
