@@ -81,8 +81,12 @@ Result<MemoryPlan> plan_memory(const RunConfig& config) {
 int64_t crf_nodes(const RunConfig& config, std::size_t other_bytes, std::size_t budget_bytes) {
   const int64_t pool = config.mapping.pool.capacity;
   if (config.crf.capacity > 0) return config.crf.capacity;
-  // Bytes per node of crf_options_for_run's sizing (a lattice of 1.25 vertices per node), rounded up.
-  const std::size_t per_node = semantic::DenseCrf::kBytesPerSurfel + (5 * semantic::DenseCrf::kBytesPerVertex + 3) / 4;
+  // Bytes per node of crf_options_for_run's sizing (its lattice per node included), from the CRF's
+  // own bytes_for at a million nodes (the buffers' alignment, a few hundred bytes, is in the 1 MB kept
+  // below).
+  constexpr int64_t kProbe = 1'000'000;
+  const std::size_t per_node =
+      semantic::DenseCrf::bytes_for(crf_options_for_run(config, kProbe)) / static_cast<std::size_t>(kProbe);
   const std::size_t left = budget_bytes > other_bytes ? budget_bytes - other_bytes : 0;
   // Rounding and alignment of the buffers take a few bytes more than per_node x nodes: keep 1 MB.
   const std::size_t fits = left > 1'000'000 ? (left - 1'000'000) / per_node : 0;

@@ -271,7 +271,7 @@ std::size_t Tracker::bytes() const {
   // Counted from what this tracker holds, independently of the layout above.
   const Intrinsics ks = level0_.pyramid_level(so3_level_);
   std::size_t floats = 2 * kernels::kNeComponents * tile_capacity_ + 3 * static_cast<std::size_t>(ks.width) * ks.height;
-  floats += gain_row_width_;
+  floats += static_cast<std::size_t>(level0_.width);  // gain_row_
   for (const Image<float>* im : {&so3_ref_intensity_, &so3_ref_grad_x_, &so3_ref_grad_y_, &so3_cur_intensity_})
     floats += static_cast<std::size_t>(im->width()) * im->height();
   return floats * sizeof(float);
@@ -305,8 +305,7 @@ Result<Tracker> Tracker::create(const Intrinsics& level0, int levels, const Trac
   }
   t.tile_capacity_ = layout.tile_capacity;
   t.tile_.reset(new float[2 * kernels::kNeComponents * t.tile_capacity_]());
-  t.gain_row_width_ = static_cast<std::size_t>(level0.width);
-  t.gain_row_.reset(new float[t.gain_row_width_]());
+  t.gain_row_.reset(new float[static_cast<std::size_t>(level0.width)]());
   // Rays K^-1 (x, y, 1) of the SO(3) level: the "vertices" of the rotation-only alignment.
   const Intrinsics ks = level0.pyramid_level(t.so3_level_);
   t.rays_.reset(new float[3 * static_cast<std::size_t>(ks.width) * ks.height]);

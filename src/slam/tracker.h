@@ -364,8 +364,7 @@ class Tracker {
   int so3_level_ = 0;                     // resolved options_.so3_level (levels_ = the extra level)
   std::size_t tile_capacity_ = 0;         // pixels per tile (whole image rows of any level)
   std::unique_ptr<float[]> tile_;         // 2 x 8 x tile_capacity_ floats: ICP rows, then RGB rows (SoA)
-  std::size_t gain_row_width_ = 0;        // level 0's width
-  std::unique_ptr<float[]> gain_row_;     // one row of the current intensity times the photometric gain
+  std::unique_ptr<float[]> gain_row_;     // one level-0 row (level0_.width) of the current intensity times the gain
   std::unique_ptr<float[]> rays_;         // K^-1 (x, y, 1) per pixel of so3_level_, xyz, row-major
   // The extra SO(3) level (when so3_level_ == levels_): intensities (grey levels) and the
   // reference's gradients (grey levels per pixel of that level).
