@@ -7,12 +7,13 @@
 #include "commands.h"
 #include "platform/cpu/cpu_features.h"
 #include "sources/open_source.h"
+#include "version.h"
 
 namespace ef::app {
 
 namespace {
 
-constexpr const char* kVersion = "0.1.0";
+constexpr const char* kVersion = EF_VERSION;  // generated/version.h (cmake/version.cmake)
 
 void print_main_help() {
   std::printf(

@@ -14,7 +14,10 @@
 #include "platform/devices/status_panel.h"
 #include "core/progress.h"
 #include "config_file.h"
+#include "pipeline/run_folder.h"
 #include "pipeline/run_pipeline.h"
+#include "platform/cpu/thread_affinity.h"
+#include "platform/devices/service_notify.h"
 #include "stop_signal.h"
 #include "sources/open_source.h"
 #include "synth/synthetic_source.h"
@@ -56,7 +59,11 @@ std::string run_help() {
                      "the CNN's own prediction where no labelled surfel is seen (class ids 0..13, for\n"
                      "`edgefusion eval labels`) as the map was when the frame arrived; --labels-final-out (a\n"
                      "recording only) reads it again after the run and renders the final map at the estimated\n"
-                     "poses into the same frames.\n\n"
+                     "poses into the same frames.\n"
+                     "Exit status: 0 the run ended (the source's end, --frames, SIGINT / SIGTERM, the stop button);\n"
+                     "1 an error while running (outputs so far written); 2 a usage or configuration error (nothing\n"
+                     "started); 3 the live camera vanished (outputs written) or is not there at the start: a service\n"
+                     "restarts on it, and with output.resume_interrupted continues the map.\n\n"
                      "Sources: " + std::string(source_uri_help()) + "\nBuilt-in rooms: " + rooms,
                      run_options());
 }
@@ -122,9 +129,15 @@ class PanelObserver : public RunObserver {
                   static_cast<long long>(slam.lost_frames()), static_cast<long long>(slam.relocalisations()),
                   static_cast<long long>(pipeline.frames_dropped()));
     progress_.update(pipeline.mapping().frames(), line_);
+    // systemd's watchdog: a mapper that stops mapping frames stops proving it is alive. The status
+    // line (`systemctl status`) follows at the same pace.
+    notifier_.alive(now_ms() * 1000, line_);
   }
 
   void finish(int64_t frames) { progress_.finish(frames); }
+  // The service's notifications (READY, STATUS, WATCHDOG, STOPPING): systemd's view of the run.
+  ServiceNotifier& notifier() { return notifier_; }
+  void keep_alive() { notifier_.alive(now_ms() * 1000); }
   // SIGINT / SIGTERM received so far (the run's stop was the first; one more stops a later pass).
   int stop_signals() const { return stop_signal_.signals(); }
 
@@ -149,6 +162,7 @@ class PanelObserver : public RunObserver {
   // SIGINT / SIGTERM from here on: finish the frame in hand, drain, write the outputs and exit 0.
   StopSignalScope stop_signal_;
   Progress progress_;
+  ServiceNotifier notifier_;
   bool panel_failed_ = false;
   bool pool_full_warned_ = false;
   std::chrono::steady_clock::time_point start_;
@@ -182,8 +196,25 @@ int cmd_run(int argc, char** argv) {
                           : config_from_args(*args);
   if (!config_or.ok()) return report_error(kCmd, config_or.error(), 2);
   RunConfig config = std::move(*config_or);
-  if (resume) {
-    config.run.out = resume_dir;
+  std::string continue_dir = resume_dir;
+  if (!resume && config.output.resume_interrupted) {
+    // A service's restart after a power cut or a lost camera: the interrupted run goes on, in its
+    // folder and with its own configuration (as --resume), the command line's flags still applied.
+    const InterruptedRun interrupted = find_interrupted_run(config.run);
+    if (interrupted.folder.empty()) {
+      std::fprintf(stderr, "%s: starting a new run: %s\n", kCmd, interrupted.why.c_str());
+    } else {
+      std::fprintf(stderr, "%s: continuing the interrupted run %s (it says \"%s\"; checkpoint after frame %lld)\n",
+                   kCmd, interrupted.folder.c_str(), interrupted.state.c_str(),
+                   static_cast<long long>(interrupted.frames));
+      auto own = config_from_args(*args, (std::filesystem::path(interrupted.folder) / "config.yaml").string());
+      if (!own.ok()) return report_error(kCmd, own.error(), 2);
+      config = std::move(*own);
+      continue_dir = interrupted.folder;
+    }
+  }
+  if (!continue_dir.empty()) {
+    config.run.out = continue_dir;
     config.output.resume = true;
     config.output.overwrite = false;
   }
@@ -197,7 +228,13 @@ int cmd_run(int argc, char** argv) {
   if (!gpio.warnings.empty()) std::fprintf(stderr, "%s: warning: %s\n", kCmd, gpio.warnings.c_str());
 
   auto source_or = open_source(config.run.source);
-  if (!source_or.ok()) return report_error(kCmd, source_or.error(), 1);
+  if (!source_or.ok()) {
+    // A live camera that is not there (unplugged, not yet enumerated after boot) is the vanished
+    // camera's case: the service restarts until it is back.
+    const auto probe = probe_source(config.run.source);
+    const bool absent_camera = probe.ok() && probe->live && source_or.error().code == ErrorCode::kNotFound;
+    return report_error(kCmd, source_or.error(), absent_camera ? kExitCameraLost : 1);
+  }
   report_warning(kCmd, (*source_or)->info().warning);
   FrameSource& source = **source_or;
   if (source.info().intrinsics_assumed)
@@ -248,6 +285,11 @@ int cmd_run(int argc, char** argv) {
                threads == 1 ? "" : "s", layout, slots, slots == 1 ? "" : "s",
                static_cast<double>(pipeline.slot_bytes()) / 1e6,
                info.live ? (", capture thread with " + std::to_string(config.pipeline.capture_slots) + " slots").c_str() : "");
+  if (pipeline.config().pipeline.pinning == "auto" || pipeline.config().pipeline.pinning_text() != "none")
+    std::fprintf(stderr, "%s: threads pinned to cores: %s%s\n", kCmd, pipeline.config().pipeline.pinning_text().c_str(),
+                 pipeline.config().pipeline.pinning == "auto"
+                     ? (" (pipeline.pinning auto, of " + cores_text(usable_cpu_cores()) + ")").c_str()
+                     : "");
   if (pipeline.semantics() != nullptr)
     std::fprintf(stderr, "%s: %s\n", kCmd, pipeline.semantics()->describe().c_str());
   else
@@ -257,6 +299,7 @@ int cmd_run(int argc, char** argv) {
                static_cast<double>(plan->total_bytes) / 1e6, static_cast<long long>(config.memory.budget_mb));
 
   panel.set_led(LedPattern::kTracking);
+  panel.notifier().ready("mapping " + config.run.source + " into " + pipeline.out_folder());
   const RunOutcome outcome = pipeline.run(panel);
   panel.finish(outcome.frames);
   int exit_code = 0;
@@ -264,9 +307,12 @@ int cmd_run(int argc, char** argv) {
     // Keep what was already accepted: the trajectory, map and statistics so far are written below.
     report_error(kCmd, *outcome.error, 1);
     exit_code = 1;
+  } else if (outcome.camera_lost) {
+    exit_code = kExitCameraLost;  // outputs written below; a service restarts on it
   }
   // Writing the outputs: the slow blink until they are on disk, then off.
   panel.set_led(LedPattern::kLogging);
+  panel.notifier().stopping("writing the outputs of " + std::to_string(outcome.frames) + " frames");
   const OutputFiles files = pipeline.write_outputs(outcome);
   for (const Error& e : files.errors) report_error(kCmd, e, 1);
   if (!files.errors.empty()) exit_code = 1;
@@ -306,7 +352,10 @@ int cmd_run(int argc, char** argv) {
     // A signal during this pass (a second one if the run itself was stopped by one) stops it now:
     // the images so far are whole, the outputs above are already safe.
     const int signals_before = panel.stop_signals();
-    const auto stop = [&panel, signals_before] { return panel.stop_signals() > signals_before; };
+    const auto stop = [&panel, signals_before] {
+      panel.keep_alive();
+      return panel.stop_signals() > signals_before;
+    };
     auto counts =
         replay.ok() ? pipeline.render_final_labels(**replay, stop) : Result<FinalLabelCounts>(replay.error());
     if (!counts.ok()) {
@@ -319,6 +368,9 @@ int cmd_run(int argc, char** argv) {
                   counts->stopped ? "; stopped by a signal" : "");
     }
   }
+  if (exit_code == kExitCameraLost)
+    std::fprintf(stderr, "%s: the camera vanished after %lld frames: exit status %d (the service restarts)\n", kCmd,
+                 static_cast<long long>(outcome.frames), kExitCameraLost);
   return exit_code;
 }
 

@@ -1,5 +1,5 @@
 // The commands of `edgefusion`. Each takes the full argv (argv[1] is the command name) and returns
-// the exit code: 0 success, 1 failure while running, 2 usage error.
+// the exit code: 0 success, 1 failure while running, 2 usage error; `run` also 3 (kExitCameraLost).
 #pragma once
 
 #include <string>
@@ -7,6 +7,10 @@
 #include "core/result.h"
 
 namespace ef::app {
+
+// `run`'s exit status when its live camera vanished: the outputs are complete, and the systemd unit
+// restarts on it (Restart=on-failure; 2, a configuration error, is never restarted).
+inline constexpr int kExitCameraLost = 3;
 
 int cmd_run(int argc, char** argv);
 int cmd_eval(int argc, char** argv);

@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages EdgeFusion needs. Run as root (or with sudo).
 #   install-deps.sh            build and run natively (compiler, CMake, Eigen, OpenCV core/imgproc, PNG/JPEG/zlib,
-#                              and for live devices OpenNI2 (with its Dummy test device), libv4l2, libgpiod 1.6)
+#                              and for live devices OpenNI2 (with its Dummy test device), libv4l2, libgpiod 1.6;
+#                              libsystemd for the service's readiness and watchdog notifications)
 #   install-deps.sh test       + test tools (GoogleTest, clang/libFuzzer, python3-open3d for the PLY check,
 #                              XNNPACK, pthreadpool, cpuinfo for bench_nn_conv's comparison, PyTorch, ONNX
 #                              and OpenCV for Python for the tests of models/, Node.js with the npm readers of
 #                              tests/npm: @mcap/core and Foxglove's ROS 2 message readers, for the field logs)
 #   install-deps.sh cross      + aarch64 cross compiler, arm64 multiarch libraries, qemu-user
+#   install-deps.sh package    cross + what scripts/package.sh and tests/package/check_packages.sh use:
+#                              dpkg-dev (dpkg-shlibdeps), lintian, systemd (systemd-analyze verify), fakeroot
 #   install-deps.sh models     base + what models/train.sh needs (PyTorch, ONNX, OpenCV for Python)
 # Idempotent: packages already present are skipped quickly by apt.
 set -euo pipefail
@@ -18,7 +21,7 @@ export DEBIAN_FRONTEND=noninteractive
 base_pkgs=(build-essential cmake ninja-build pkg-config git
            libeigen3-dev libopencv-core-dev libopencv-imgproc-dev
            libpng-dev libjpeg62-turbo-dev zlib1g-dev
-           libopenni2-dev libv4l-dev libgpiod-dev libyaml-cpp-dev)
+           libopenni2-dev libv4l-dev libgpiod-dev libyaml-cpp-dev libsystemd-dev)
 test_pkgs=(libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev python3 python3-numpy python3-open3d
            libxnnpack-dev libpthreadpool-dev libcpuinfo-dev
            python3-torch python3-onnx python3-opencv nodejs)
@@ -27,26 +30,29 @@ cross_pkgs=(g++-aarch64-linux-gnu qemu-user
             libpng-dev:arm64 libjpeg62-turbo-dev:arm64 zlib1g-dev:arm64
             libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64 libgtest-dev:arm64
             libopenni2-dev:arm64 libv4l-dev:arm64 libgpiod-dev:arm64
-            libyaml-cpp0.7:arm64)
+            libyaml-cpp0.7:arm64 libsystemd-dev:arm64)
+package_pkgs=(dpkg-dev lintian systemd fakeroot file)
 
 pkgs=("${base_pkgs[@]}")
 case "$mode" in
   base) ;;
   test) pkgs+=("${test_pkgs[@]}") ;;
   models) pkgs+=("${models_pkgs[@]}") ;;
-  cross) pkgs+=("${test_pkgs[@]}" "${cross_pkgs[@]}")
+  cross|package)
+         pkgs+=("${test_pkgs[@]}" "${cross_pkgs[@]}")
+         if [ "$mode" = package ]; then pkgs+=("${package_pkgs[@]}"); fi
          if ! dpkg --print-foreign-architectures | grep -qx arm64; then $SUDO dpkg --add-architecture arm64; fi ;;
-  *) echo "install-deps.sh: unknown mode '$mode' (expected base, test, cross or models)" >&2; exit 2 ;;
+  *) echo "install-deps.sh: unknown mode '$mode' (expected base, test, cross, package or models)" >&2; exit 2 ;;
 esac
 
 # npm comes with some nodejs builds (NodeSource's) and is Debian's own package otherwise.
-if [ "$mode" = test ] || [ "$mode" = cross ]; then
+if [ "$mode" = test ] || [ "$mode" = cross ] || [ "$mode" = package ]; then
   if ! command -v npm >/dev/null 2>&1; then pkgs+=(npm); fi
 fi
 
 # The test-side npm readers (tests/npm/package-lock.json), once apt's part is done.
 npm_readers() {
-  if [ "$mode" != test ] && [ "$mode" != cross ]; then return 0; fi
+  if [ "$mode" != test ] && [ "$mode" != cross ] && [ "$mode" != package ]; then return 0; fi
   local dir
   dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/npm"
   if [ -d "$dir/node_modules/@mcap/core" ]; then return 0; fi

@@ -4,7 +4,7 @@
 //    "counters":{"<name>":n,...}}
 // fps = frames / seconds (end to end; 0 when seconds <= 0). Stages and counters appear in
 // registration order. Non-finite numbers are written as null. "state" (when given): "running",
-// "finished", "stopped" or "failed: <reason>" (pipeline/run_pipeline.h).
+// "finished", "stopped", "camera lost" or "failed: <reason>" (pipeline/run_pipeline.h).
 #pragma once
 
 #include <cstdint>

@@ -8,13 +8,24 @@
 
 namespace ef::pipeline {
 
-// The models/ folder of the source tree this program was built from (EF_MODELS_DIR, a compile
-// definition), or $EDGEFUSION_MODELS_DIR when set: the PYTHONPATH of `edgefusion model import`.
+// The folder of the shipped models and the Python model tools (the PYTHONPATH of `edgefusion model
+// import`), found where the program is (issue 32), in this order:
+//   1. $EDGEFUSION_MODELS_DIR when set;
+//   2. <the program's folder>/../share/edgefusion/models when it exists: an installed program (any
+//      install prefix, the package's /usr, a package unpacked into a folder);
+//   3. the models/ folder of the source tree it was built from (EF_MODELS_DIR, a compile
+//      definition): a program run from its build tree.
 std::string models_dir();
 // True when $EDGEFUSION_MODELS_DIR chose models_dir() (for messages).
 bool models_dir_overridden();
+// Step 2 for a program at `exe`: "<exe's folder>/../share/edgefusion/models" (normalised) when that
+// folder exists, else empty.
+std::string installed_models_dir(const std::string& exe);
+// Where the running program is (/proc/self/exe; under qemu-user the emulated program's path), or
+// empty when the system does not say.
+std::string this_program_path();
 
-// The shipped models (in EF_MODELS_DIR): EdgeSegNet, trained on the synthetic rooms (RGB-D,
+// The shipped models (in models_dir()): EdgeSegNet, trained on the synthetic rooms (RGB-D,
 // 160x120), and DeepLabv3-MobileNetV2 trained on ADE20K photographs, imported at 257x193 with its
 // classes mapped to the NYUv2 13 (RGB; models/MODEL_CARD-deeplab.md).
 inline constexpr const char* kSyntheticModelFile = "edgefusion-seg.efm";

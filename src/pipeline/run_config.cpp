@@ -88,11 +88,48 @@ const opt::Table<PipelineOptions>& PipelineOptions::table() {
       {"mapping_cpu", "", "", &PipelineOptions::mapping_cpu, "", kCore, "CPU core the mapping thread is pinned to"},
       {"capture_cpu", "", "", &PipelineOptions::capture_cpu, "", kCore,
        "CPU core a live camera's capture thread is pinned to"},
+      {"pinning", "", "", &PipelineOptions::pinning, "", opt::any(),
+       "keys = the *_cpu keys pin the threads; auto = chosen at start-up from the cores present (mapping on the "
+       "last, the CNN on the one before, the front step before that, capture on the first; fewer cores share; "
+       "one core pins nothing), so one configuration fits any board"},
   };
   return t;
 }
 
-Status PipelineOptions::validate() const { return opt::check_table(*this, table(), "pipeline"); }
+Status PipelineOptions::validate() const {
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "pipeline"));
+  if (pinning != "keys" && pinning != "auto")
+    return error(ErrorCode::kInvalidArgument, "pipeline: pinning '" + pinning + "' is not keys or auto");
+  if (pinning == "auto") {
+    std::string set;
+    for (const auto& [key, cpu] : {std::pair<const char*, int>{"capture_cpu", capture_cpu}, {"front_cpu", front_cpu},
+                                   {"cnn_cpu", cnn_cpu}, {"mapping_cpu", mapping_cpu}})
+      if (cpu >= 0) set += (set.empty() ? "" : ", ") + std::string(key) + " " + std::to_string(cpu);
+    if (!set.empty())
+      return error(ErrorCode::kInvalidArgument, "pipeline: pinning auto chooses the cores itself, but " + set +
+                                                    " also pin; leave them at -1 or set pinning: keys");
+  }
+  return Status::success();
+}
+
+PipelineOptions PipelineOptions::pinned_for(const std::vector<int>& cores) const {
+  PipelineOptions p = *this;
+  if (pinning != "auto" || cores.size() < 2) return p;
+  const std::size_t n = cores.size();
+  p.mapping_cpu = cores[n - 1];
+  p.cnn_cpu = cores[n - 2];
+  p.front_cpu = n >= 4 ? cores[n - 3] : cores[0];
+  p.capture_cpu = cores[0];
+  return p;
+}
+
+std::string PipelineOptions::pinning_text() const {
+  std::string s;
+  for (const auto& [name, cpu] : {std::pair<const char*, int>{"capture", capture_cpu}, {"front", front_cpu},
+                                  {"CNN", cnn_cpu}, {"mapping", mapping_cpu}})
+    if (cpu >= 0) s += (s.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(cpu);
+  return s.empty() ? "none" : s;
+}
 
 const opt::Table<MemoryOptions>& MemoryOptions::table() {
   static const opt::Table<MemoryOptions> t = {
@@ -118,6 +155,10 @@ const opt::Table<OutputOptions>& OutputOptions::table() {
        opt::between(0.1, 86400).or_value(0, "none"),
        "the whole map state is written to checkpoint.efs this often and at the end (run --resume DIR continues "
        "from it; edgefusion export DIR writes its map.ply)"},
+      {"resume_interrupted", "", "--resume-interrupted", &OutputOptions::resume_interrupted, "", opt::any(),
+       "with \"{time}\" in `out`: when the newest run there (its `latest` link) did not end (a power cut, a kill: "
+       "stats.json says \"running\") or lost its camera, and has a checkpoint, continue it in its folder with its "
+       "configuration instead of starting a new one (the service's restart after a power cut)"},
   };
   return t;
 }

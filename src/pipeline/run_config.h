@@ -102,11 +102,23 @@ struct PipelineOptions {
   int cnn_cpu = -1;
   int mapping_cpu = -1;
   int capture_cpu = -1;
+  // "keys": the *_cpu keys pin the threads; "auto": the cores are chosen at start-up from those
+  // this process may use (pinned_for), so one configuration fits boards of any core count.
+  std::string pinning = "keys";
   // Tests only (no key): milliseconds the CNN sleeps before each frame, a slow network.
   double test_cnn_delay_ms = 0;
 
   static const opt::Table<PipelineOptions>& table();
   Status validate() const;
+  // These options with the *_cpu fields chosen from `cores` (ascending, never empty) when pinning is
+  // "auto": mapping on the last core, the CNN on the one before, the front step on the one before
+  // that, a live camera's capture thread on the first (with the kernel's interrupts); with fewer
+  // than 4 cores the first ones are shared (3: capture + front, CNN, mapping; 2: capture + front +
+  // CNN, mapping) and one core pins nothing. Unchanged with pinning "keys".
+  PipelineOptions pinned_for(const std::vector<int>& cores) const;
+  // "capture 0, front 1, CNN 2, mapping 3" or "none" (for the start-up line).
+  std::string pinning_text() const;
+
   // Slots of the ring between the steps: one when a single thread takes every step in turn.
   int slots() const { return threads == 1 ? 1 : prepared_slots; }
 };
@@ -119,6 +131,9 @@ struct OutputOptions {
   double checkpoint_seconds = 30;  // a map checkpoint this often and at the end, s; 0 = none
   // `run --resume DIR` (no key): continue the run in `out` from its newest checkpoint.
   bool resume = false;
+  // With "{time}" in `out`: continue the newest run there when it was interrupted (power cut, kill,
+  // lost camera) and has a checkpoint, instead of starting a new one (pipeline/run_folder.h).
+  bool resume_interrupted = false;
 
   static const opt::Table<OutputOptions>& table();
   Status validate() const;

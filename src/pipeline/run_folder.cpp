@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "io/durable_file.h"
+#include "pipeline/checkpoint.h"
 
 namespace ef::pipeline {
 
@@ -52,6 +53,56 @@ Status check_out_folder(const RunOptions& run, const OutputOptions& output) {
                "output folder '" + run.out + "' holds an earlier run (" + found +
                    "): a run never overwrites another. Choose another --out, put {time} in it for a folder per "
                    "run, or give --overwrite (output.overwrite: true) to replace that run's outputs");
+}
+
+std::string run_state(const std::string& folder) {
+  // stats.json starts {"state":"<text>", (io/stats_json.h); the text is JSON-escaped.
+  std::FILE* f = std::fopen((fs::path(folder) / "stats.json").c_str(), "rb");
+  if (f == nullptr) return {};
+  char head[512];
+  const std::size_t n = std::fread(head, 1, sizeof head, f);
+  std::fclose(f);
+  const std::string text(head, n);
+  constexpr const char* kKey = "{\"state\":\"";
+  if (text.rfind(kKey, 0) != 0) return {};
+  std::string state;
+  for (std::size_t i = std::char_traits<char>::length(kKey); i < text.size(); ++i) {
+    if (text[i] == '"') return state;
+    if (text[i] == '\\' && i + 1 < text.size()) ++i;  // an escaped character: keep it as is
+    state += text[i];
+  }
+  return {};  // cut off before its closing quote
+}
+
+InterruptedRun find_interrupted_run(const RunOptions& run) {
+  InterruptedRun r;
+  const fs::path out(run.out);
+  if (out.filename().string().find(kTimePlaceholder) == std::string::npos) {
+    r.why = "output.resume_interrupted needs \"{time}\" in the last part of out ('" + run.out + "')";
+    return r;
+  }
+  const fs::path parent = out.parent_path().empty() ? fs::path(".") : out.parent_path();
+  const fs::path link = parent / "latest";
+  std::error_code ec;
+  const fs::path target = fs::read_symlink(link, ec);
+  if (ec || !fs::is_directory(link, ec)) {
+    r.why = "no earlier run (" + link.string() + " does not point to a run folder)";
+    return r;
+  }
+  const std::string folder = (target.is_absolute() ? target : parent / target).lexically_normal().string();
+  r.state = run_state(folder);
+  if (r.state != "running" && r.state != "camera lost") {
+    r.why = "the newest run " + folder + " ended (" + (r.state.empty() ? "no stats.json" : r.state) + ")";
+    return r;
+  }
+  auto found = find_checkpoint(folder);
+  if (!found.ok()) {
+    r.why = "the newest run " + folder + " (" + r.state + ") has no usable checkpoint: " + found.error().message;
+    return r;
+  }
+  r.frames = found->meta.frames;
+  r.folder = folder;
+  return r;
 }
 
 Result<std::string> prepare_out_folder(const RunOptions& run, const OutputOptions& output, std::time_t now) {

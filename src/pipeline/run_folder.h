@@ -30,6 +30,25 @@ inline constexpr const char* kTimePlaceholder = "{time}";
 // overwrite, or resume: continuing it). Error (kInvalidArgument) naming the folder, the outputs found and the ways out.
 Status check_out_folder(const RunOptions& run, const OutputOptions& output);
 
+// For a service that restarts after a power cut (output.resume_interrupted, issue 32): the run to
+// continue instead of starting a new one. With "{time}" in the last part of `run.out`, the folder
+// that `latest` beside it points to is one when its stats.json says "running" (the run was killed
+// or the power went: it never wrote its end) or "camera lost" (the service restarts after a camera
+// that vanished), and it has a usable checkpoint (find_checkpoint). Otherwise `folder` is empty and
+// `why` says what was found ("no earlier run", "... ended: finished", "... has no usable
+// checkpoint: ..."), for the start-up message.
+struct InterruptedRun {
+  std::string folder;  // the run folder to continue (the link resolved); empty = start a new run
+  std::string state;   // its stats.json state
+  int64_t frames = 0;  // frames its checkpoint holds
+  std::string why;     // when folder is empty: why no run is continued
+};
+InterruptedRun find_interrupted_run(const RunOptions& run);
+
+// The "state" of a run folder's stats.json ("running", "stopped", "camera lost", "finished",
+// "failed: ..."), or empty when it has none or it cannot be read.
+std::string run_state(const std::string& folder);
+
 // Creates the run's folder and returns its path: "{time}" replaced (`now`: the start time), the
 // `latest` link updated; an earlier run's outputs removed (overwrite); leftovers removed. With
 // output.resume the folder must exist and keeps its outputs (the run continues them). Errors name

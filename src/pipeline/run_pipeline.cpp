@@ -37,6 +37,12 @@ double peak_rss_bytes() {
 
 }  // namespace
 
+RunConfig RunPipeline::resolved(const RunConfig& config) {
+  RunConfig c = config;
+  c.pipeline = config.pipeline.pinned_for(usable_cpu_cores());
+  return c;
+}
+
 Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config, FrameSource& source,
                                                          StageStats& stats) {
   EF_RETURN_IF_ERROR(config.validate());
@@ -96,7 +102,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                                       checkpoint ? checkpoint->meta.trajectory_bytes : int64_t{-1});
   if (!mapping.ok()) return mapping.take_error();
   p->mapping_ = std::move(*mapping);
-  auto front = FrontStage::create(config.run, config.pipeline, source, p->mapping_->slam(), p->semantics_.get());
+  auto front = FrontStage::create(config.run, p->config_.pipeline, source, p->mapping_->slam(), p->semantics_.get());
   if (!front.ok()) return front.take_error();
   p->front_ = std::move(*front);
   if (!config.log.file.empty()) {
@@ -424,7 +430,8 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   std::string state = "finished";
   if (outcome.error) state = "failed: " + outcome.error->message;
   else if (!out.errors.empty()) state = "failed: " + out.errors.front().message;
-  else if (outcome.stopped || outcome.camera_lost) state = "stopped";
+  else if (outcome.camera_lost) state = "camera lost";  // output.resume_interrupted continues such a run
+  else if (outcome.stopped) state = "stopped";
   if (Status s = write_stats(state.c_str(), outcome.frames, outcome.seconds); !s.ok()) out.errors.push_back(s.error());
   else out.wrote_stats = true;
   return out;

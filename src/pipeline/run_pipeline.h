@@ -15,7 +15,8 @@
 // Nothing accepted is lost (issue 29): the folder is a new run's (pipeline/run_folder.h); the
 // trajectory gets a whole line per frame, synced every output.sync_seconds; stats.json is written
 // at the start and rewritten every output.stats_seconds with "state": "running", and at the end with
-// "finished" (the source ended or max_frames), "stopped" (a stop request, a camera that vanished) or
+// "finished" (the source ended or max_frames), "stopped" (a stop request), "camera lost" (a live
+// camera that vanished: output.resume_interrupted continues such a run) or
 // "failed: <reason>" (the run's error or an output's); map.ply and stats.json are whole or absent
 // (io/durable_file.h). A killed run leaves its trajectory up to the last line, and a stats.json
 // that parses and says "running".
@@ -115,6 +116,10 @@ class RunPipeline {
   RunPipeline(const RunPipeline&) = delete;
   RunPipeline& operator=(const RunPipeline&) = delete;
 
+  // The configuration it runs with: the one given, with pipeline.pinning "auto" resolved into the
+  // *_cpu cores of this machine.
+  const RunConfig& config() const { return config_; }
+
   // Runs until the source ends, max_frames, an error or a stop request (see the header).
   RunOutcome run(RunObserver& observer);
 
@@ -151,7 +156,9 @@ class RunPipeline {
 
  private:
   RunPipeline(const RunConfig& config, FrameSource& source, StageStats& stats)
-      : config_(config), source_(source), stats_(stats) {}
+      : config_(resolved(config)), source_(source), stats_(stats) {}
+  // The configuration with pipeline.pinning "auto" turned into cores of this machine.
+  static RunConfig resolved(const RunConfig& config);
   // Maps one slot; an end slot sets the outcome instead. Returns false when the run is over.
   bool consume(PreparedFrame& slot, RunObserver& observer, RunOutcome& outcome);
   // The observer's stop request, passed on to the front stage once.

@@ -19,6 +19,7 @@
 #include "core/stage_stats.h"
 #include "io/mcap_reader.h"
 #include "pipeline/run_pipeline.h"
+#include "pipeline/run_folder.h"
 #include "io/frame_source.h"
 #include "semantic/semantic_test_util.h"
 #include "sources/open_source.h"
@@ -325,6 +326,8 @@ TEST(Pipeline, VanishingCameraLeavesCompleteOutputs) {
     EXPECT_NE(ply.find("element vertex " + std::to_string((*p)->slam().pool().size())), std::string::npos);
     EXPECT_GT((*p)->slam().pool().size(), 1000);
     EXPECT_NE(read_file(files.stats).find("\"camera_lost\":1"), std::string::npos);
+    // The end it states: what a restarted service continues (output.resume_interrupted).
+    EXPECT_EQ(pipeline::run_state(out.string()), "camera lost");
   }
 }
 
