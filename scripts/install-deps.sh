@@ -31,7 +31,7 @@ cross_pkgs=(g++-aarch64-linux-gnu qemu-user
             libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64 libgtest-dev:arm64
             libopenni2-dev:arm64 libv4l-dev:arm64 libgpiod-dev:arm64
             libyaml-cpp0.7:arm64 libsystemd-dev:arm64)
-package_pkgs=(dpkg-dev lintian systemd fakeroot file)
+package_pkgs=(dpkg-dev lintian systemd fakeroot file adduser)
 
 pkgs=("${base_pkgs[@]}")
 case "$mode" in
