@@ -20,7 +20,7 @@ void print_main_help() {
       "edgefusion %s: dense 3D semantic mapping on the CPU (SemanticFusion on surfels)\n\n"
       "Usage: edgefusion <command> [options]     (edgefusion <command> --help for each)\n\n"
       "Commands:\n"
-      "  run       map a source: writes trajectory.txt, map.ply (when a map exists) and stats.json\n"
+      "  run       map a source: writes trajectory.txt, map.ply, preview.png (when a map exists) and stats.json\n"
       "  eval      evaluate a trajectory (ate, rpe) or label images (labels)\n"
       "  convert   turn any source into an ElasticFusion .klg log, a TUM RGB-D folder or an MCAP field log\n"
       "  log       record a field log (MCAP) and nothing else: the low-power mode; map it later with run\n"
@@ -28,6 +28,7 @@ void print_main_help() {
       "  model     inspect a network (info) or quantise an ONNX one to .efm (import)\n"
       "  plan      print the memory a run of a configuration allocates, part by part, against its budget\n"
       "  export    write the map of a run's newest checkpoint as a PLY file (a run killed before its end)\n"
+      "  view      draw a map (PLY, run folder or checkpoint) as a picture: colour and classes, the camera's path\n"
       "  version   print the version and the CPU paths this machine can use\n\n"
       "Sources: %s\n",
       kVersion, source_uri_help_text());
@@ -57,8 +58,9 @@ int run_cli(int argc, char** argv) {
   if (cmd == "plan") return cmd_plan(argc, argv);
   if (cmd == "export") return cmd_export(argc, argv);
   if (cmd == "log") return cmd_log(argc, argv);
+  if (cmd == "view") return cmd_view(argc, argv);
   std::fprintf(stderr,
-               "edgefusion: unknown command '%s' (expected run, eval, convert, log, segment, model, plan, export, version; see --help)\n",
+               "edgefusion: unknown command '%s' (expected run, eval, convert, log, segment, model, plan, export, view, version; see --help)\n",
                cmd.c_str());
   return 2;
 }

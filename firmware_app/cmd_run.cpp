@@ -336,6 +336,7 @@ int cmd_run(int argc, char** argv) {
   else if (files.wrote_trajectory)
     std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
+  if (files.wrote_preview) std::printf("preview: %s\n", files.preview.c_str());
   if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());
   if (!config.labels.out.empty()) {
     const int written = stats.counter_id("label_images_written");

@@ -20,6 +20,7 @@ int cmd_model(int argc, char** argv);
 int cmd_plan(int argc, char** argv);
 int cmd_export(int argc, char** argv);
 int cmd_log(int argc, char** argv);
+int cmd_view(int argc, char** argv);
 
 // The list of source URI forms, for help texts.
 const char* source_uri_help_text();

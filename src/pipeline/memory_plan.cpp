@@ -15,6 +15,7 @@
 #include "pipeline/cnn_worker.h"
 #include "pipeline/final_labels.h"
 #include "pipeline/front_stage.h"
+#include "pipeline/map_preview.h"
 #include "pipeline/mapping_stage.h"
 #include "pipeline/model_paths.h"
 #include "pipeline/run_pipeline.h"
@@ -194,6 +195,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
               ", a CNN result, a predictor of the whole map, the rendering");
     }
   }
+
+  if (config.run.preview)
+    add("map preview", map_preview_bytes_for(kPreviewWidth, kPreviewHeight),
+        "after the run: preview.png, two " + size_text(kPreviewWidth, kPreviewHeight) +
+            " panels, their depth buffer and the camera's path (pipeline/map_preview.h)");
 
   // Prepared frames (pipeline/front_stage.h): per slot the working frame and its preprocessor.
   const int slots = config.pipeline.slots();

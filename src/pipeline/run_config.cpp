@@ -24,6 +24,9 @@ const opt::Table<RunOptions>& RunOptions::table() {
        "link `latest` beside it to the newest"},
       {"progress", "", "--quiet", &RunOptions::progress, "", opt::any(), "progress line on stderr"},
       {"map", "", "", &RunOptions::map, "", opt::any(), "write map.ply at the end of the run"},
+      {"preview", "", "--no-preview", &RunOptions::preview, "", opt::any(),
+       "write preview.png at the end of the run: the map in colour and in its classes, the camera's path, a "
+       "legend (edgefusion view draws any map the same way)"},
       {"realtime", "", "--realtime", &RunOptions::realtime, "", opt::any(),
        "replay a recording at its recorded speed instead of as fast as possible"},
   };

@@ -51,6 +51,7 @@ struct RunOptions {
   std::string out;                          // output folder; `run` needs it
   bool progress = true;                     // progress line on stderr
   bool map = true;                          // write map.ply at the end of the run
+  bool preview = true;                      // write preview.png at the end (pipeline/map_preview.h)
   bool realtime = false;                    // replays paced by their timestamps (cameras pace themselves)
 
   static const opt::Table<RunOptions>& table();

@@ -11,6 +11,7 @@
 #include "io/ply_writer.h"
 #include "io/stats_json.h"
 #include "pipeline/checkpoint.h"
+#include "pipeline/map_preview.h"
 #include "pipeline/memory_plan.h"
 #include "pipeline/run_folder.h"
 #include "platform/cpu/thread_affinity.h"
@@ -414,6 +415,23 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
     if (semantics_ != nullptr) semantics_->add_label_columns(slam.pool(), cloud);
     if (Status s = write_surfel_ply(out.map, cloud, comment); !s.ok()) out.errors.push_back(s.error());
     else out.wrote_map = true;
+  }
+  if (config_.run.preview && mapped) {
+    // The picture of the final map and the camera's path (trajectory.txt, as just written).
+    SurfelCloudView cloud = slam::surfel_cloud_view(slam.pool());
+    if (semantics_ != nullptr) semantics_->add_label_columns(slam.pool(), cloud);
+    auto path = out.wrote_trajectory ? read_preview_path(out.trajectory) : Result<std::vector<SE3>>(std::vector<SE3>{});
+    PreviewOptions po;
+    po.width = kPreviewWidth;
+    po.height = kPreviewHeight;
+    po.title = config_.run.source + ", " + std::to_string(outcome.frames) + " frames";
+    const std::string preview = (dir / "preview.png").string();
+    Status s = path.ok() ? write_map_preview(preview, cloud, *path, po) : Status(path.error());
+    if (!s.ok()) out.errors.push_back(s.error());
+    else {
+      out.preview = preview;
+      out.wrote_preview = true;
+    }
   }
   if (log_ != nullptr) {
     out.log = log_path_;

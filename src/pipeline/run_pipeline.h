@@ -93,6 +93,8 @@ struct RunOutcome {
 
 struct OutputFiles {
   std::string trajectory, map, stats;  // paths in the output folder
+  std::string preview;                 // preview.png (pipeline/map_preview.h), when written
+  bool wrote_preview = false;
   std::string log;                     // the field log, when the run has one
   bool wrote_trajectory = false, wrote_map = false, wrote_stats = false, wrote_log = false;
   uint64_t log_frames = 0;

@@ -1,0 +1,73 @@
+// A picture of a surfel map (issue 33): what `run` writes as preview.png at the end and
+// `edgefusion view` draws for any map. Two panels side by side, drawn from the same viewpoint: the
+// surfels' own colours, and their most likely class in the paper's palette (core/classes.h), each
+// shaded by its normal; the camera's path over both (green start, red end); below, a legend of the
+// classes the map holds, with their share of the surfels.
+//
+// The viewpoint frames the map: by default oblique, from above and behind the direction the camera
+// mostly looked (35 degrees down), or straight down (`top`); "up" is the mean of the camera's up
+// axes over the trajectory (a hand-held or robot camera stays about upright), else the first
+// camera's. The extent is the 2nd..98th percentile of the surfel centres, so a few stray surfels do
+// not shrink the picture. Or an explicit camera pose and intrinsics.
+//
+// The renderer is a z-buffered splatter of each surfel as a disc of its radius (at least a pixel),
+// written for pictures, not for tracking (slam/model_prediction is the tracker's). It allocates its
+// images per call: it runs after a run's outputs, or in `view`, never on the per-frame path.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/intrinsics.h"
+#include "core/result.h"
+#include "core/se3.h"
+#include "io/ply_writer.h"
+
+namespace ef::pipeline {
+
+inline constexpr std::size_t kPreviewPathPoses = 4096;  // camera centres kept for the drawn path
+inline constexpr int kPreviewWidth = 640, kPreviewHeight = 480;  // each panel of a run's preview.png
+
+struct PreviewOptions {
+  int width = 640, height = 480;         // each panel, pixels
+  bool top = false;                      // straight down instead of oblique
+  std::optional<SE3> pose;               // an explicit camera (T_world_cam), with `intrinsics` or
+  std::optional<Intrinsics> intrinsics;  //   a 60-degree horizontal field of view
+  std::string title;                     // written at the top left (the run, the source)
+};
+
+// The camera a preview draws from (the framing above).
+struct PreviewCamera {
+  SE3 T_world_cam;
+  Intrinsics intrinsics;
+};
+PreviewCamera frame_map(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory, const PreviewOptions& options);
+
+// What a preview drew, for messages and tests.
+struct PreviewStats {
+  int64_t surfels = 0;       // in the map
+  int64_t drawn = 0;         // in front of the camera and inside the image
+  int64_t covered_pixels = 0;  // pixels of a panel with a surfel
+  std::vector<int64_t> class_counts;  // surfels per class id 0..13
+};
+
+// The camera centres of a TUM trajectory file for the path drawn, at most `max_poses` of them (a
+// long run's every k-th, k doubling as the file goes on, so memory stays bounded whatever its
+// length); "# lost" lines and comments skipped. Errors: the file cannot be opened.
+Result<std::vector<SE3>> read_preview_path(const std::string& tum_file, std::size_t max_poses = kPreviewPathPoses);
+
+// Bytes a preview of panels width x height takes while it is drawn (buffers, picture, framing
+// samples and the path): the memory plan's "map preview" part.
+std::size_t map_preview_bytes_for(int width, int height);
+
+// The picture: (2 x width) x (height + legend) RGB. Errors: an empty map, sizes out of 64..4096.
+Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
+                                       const PreviewOptions& options, PreviewStats* stats = nullptr);
+
+// render_map_preview written as a PNG (io/image_codec.h); errors name the file.
+Status write_map_preview(const std::string& path, const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
+                         const PreviewOptions& options, PreviewStats* stats = nullptr);
+
+}  // namespace ef::pipeline

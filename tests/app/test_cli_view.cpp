@@ -1,0 +1,84 @@
+// Pictures of the map (issue 33): `run` ends with preview.png and names it; `edgefusion view` draws
+// a run folder, its map.ply or its checkpoint the same way; bad options are named.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "app/cli_test_util.h"
+#include "core/image.h"
+#include "io/image_codec.h"
+#include "test_support.h"
+
+namespace ef::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(CliView, RunWritesAPreviewAndViewDrawsEveryFormOfAMap) {
+  const auto dir = test::scratch_dir("cli-view");
+  const std::string out = (dir / "run").string();
+  auto r = cli({"run", "--source", "synthetic:?frames=30&size=160x120", "--resolution", "160x120", "--out", out,
+                "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("preview: " + (fs::path(out) / "preview.png").string()), std::string::npos) << r.out;
+  Image<Rgb8> picture;
+  ASSERT_TRUE(read_color_image((fs::path(out) / "preview.png").string(), picture).ok());
+  EXPECT_EQ(picture.width(), 2 * 640);
+  EXPECT_GT(picture.height(), 480);
+
+  // view: the folder (its map.ply and trajectory), the PLY itself, the checkpoint; top and posed.
+  int n = 0;
+  for (const std::vector<std::string>& a :
+       {std::vector<std::string>{out}, {(fs::path(out) / "map.ply").string(), "--top"},
+        {(fs::path(out) / "checkpoint.efs").string(), "--size", "320x240"},
+        {out, "--pose", "0 -1 -1 0 0 0 1", "--size", "200x100"}}) {
+    std::vector<std::string> args = {"view"};
+    args.insert(args.end(), a.begin(), a.end());
+    const std::string png = (dir / ("view-" + std::to_string(++n) + ".png")).string();
+    args.insert(args.end(), {"--out", png});
+    const auto v = cli(args);
+    ASSERT_EQ(v.code, 0) << a[0] << ": " << v.err;
+    EXPECT_NE(v.out.find("view: " + png), std::string::npos) << v.out;
+    EXPECT_NE(v.out.find("30 poses of the path"), std::string::npos) << v.out;
+    Image<Rgb8> img;
+    ASSERT_TRUE(read_color_image(png, img).ok()) << png;
+  }
+  Image<Rgb8> small;
+  ASSERT_TRUE(read_color_image((dir / "view-3.png").string(), small).ok());
+  EXPECT_EQ(small.width(), 640);
+
+  // --no-preview: none written, none named.
+  r = cli({"run", "--source", "synthetic:?frames=10&size=160x120", "--resolution", "160x120", "--no-labels",
+           "--no-preview", "--out", (dir / "plain").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "plain" / "preview.png"));
+  EXPECT_EQ(r.out.find("preview:"), std::string::npos) << r.out;
+}
+
+TEST(CliView, BadOptionsAreNamed) {
+  const auto dir = test::scratch_dir("cli-view-bad");
+  struct Case {
+    std::vector<std::string> args;
+    int code;
+    const char* says;
+  };
+  const std::string png = (dir / "x.png").string();
+  for (const Case& c : {Case{{"view", "map.ply"}, 2, "--out PNG is required"},
+                        Case{{"view", "map.ply", "--out", png, "--size", "20x20"}, 2, "64x64..4096x4096"},
+                        Case{{"view", "map.ply", "--out", png, "--size", "big"}, 2, "'big'"},
+                        Case{{"view", "map.ply", "--out", png, "--top", "--pose", "0 0 0 0 0 0 1"}, 2, "give one"},
+                        Case{{"view", "map.ply", "--out", png, "--pose", "1 2 3"}, 2, "7 numbers"},
+                        Case{{"view", (dir / "missing.ply").string(), "--out", png}, 1, "missing.ply"},
+                        Case{{"view", (dir / "notes.txt").string(), "--out", png}, 1, "not a map"}}) {
+    const auto r = cli(c.args);
+    std::string line;
+    for (const auto& a : c.args) line += " " + a;
+    EXPECT_EQ(r.code, c.code) << line << ": " << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << line << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(png));
+}
+
+}  // namespace
+}  // namespace ef::app
