@@ -340,8 +340,9 @@ int cmd_run(int argc, char** argv) {
   if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());
   if (!config.labels.out.empty()) {
     const int written = stats.counter_id("label_images_written");
-    std::printf("labels: %s (%llu images, every %d frames)\n", config.labels.out.c_str(),
-                static_cast<unsigned long long>(written >= 0 ? stats.counter(written) : 0), config.labels.out_every);
+    std::printf("labels: %s (%llu images, every %d frames; in the palette: %s)\n", config.labels.out.c_str(),
+                static_cast<unsigned long long>(written >= 0 ? stats.counter(written) : 0), config.labels.out_every,
+                color_label_folder(config.labels.out).c_str());
   }
   if (files.wrote_log)
     std::printf("log: %s (%llu frames)\n", files.log.c_str(), static_cast<unsigned long long>(files.log_frames));

@@ -1,6 +1,7 @@
 // `edgefusion segment`: runs the segmentation network on a source and writes class-id images in the
 // layout `edgefusion convert --to tum:` uses for ground truth, so that
 // `edgefusion eval labels GT/labels OUT/labels` scores the network directly.
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -9,6 +10,7 @@
 
 #include "args.h"
 #include "commands.h"
+#include "stop_signal.h"
 #include "core/classes.h"
 #include "core/frame.h"
 #include "core/stage_stats.h"
@@ -178,11 +180,20 @@ int cmd_segment(int argc, char** argv) {
 
   int64_t read = 0, segmented = 0;
   int exit_code = 0;
+  // SIGINT / SIGTERM: finish the frame in hand, then the summary below (the images so far are whole).
+  StopSignalScope stop_signal;
+  bool stopped = false;
   const auto fail = [&](const Error& e) {
     report_error(kCmd, e, 1);
     exit_code = 1;  // the frames already written are kept
   };
   while (*max_frames < 0 || read < *max_frames) {
+    if (stop_signal.stop_requested()) {
+      stopped = true;
+      std::fprintf(stderr, "\n%s: %s received after %lld frames: stopping\n", kCmd,
+                   stop_signal.signal_number() == SIGINT ? "SIGINT" : "SIGTERM", static_cast<long long>(read));
+      break;
+    }
     auto got = source.next(input);
     if (!got.ok()) {
       fail(got.error());
@@ -231,10 +242,10 @@ int cmd_segment(int argc, char** argv) {
 
   const StageSummary forward = stats.summary(st_forward), total = stats.summary(st_segment);
   const std::string isa = semantic::kernel_isa_summary(seg.executor(), desc.layers.size());
-  std::printf("segmented %lld of %lld frames (source %dx%d, network input %dx%d, output %dx%d x %d classes) into %s\n",
+  std::printf("segmented %lld of %lld frames (source %dx%d, network input %dx%d, output %dx%d x %d classes) into %s%s\n",
               static_cast<long long>(segmented), static_cast<long long>(read), info.intrinsics.width,
               info.intrinsics.height, seg.input_width(), seg.input_height(), seg.output_width(), seg.output_height(),
-              seg.num_classes(), out_dir.string().c_str());
+              seg.num_classes(), out_dir.string().c_str(), stopped ? "; stopped by a signal" : "");
   std::printf("forward pass: median %.3f ms/frame (p95 %.3f ms); resample + forward + argmax + upsample: median "
               "%.3f ms/frame; kernel ISA %s, %lld thread(s)\n",
               forward.median_ms, forward.p95_ms, total.median_ms, isa.c_str(), static_cast<long long>(*threads));

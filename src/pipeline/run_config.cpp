@@ -44,7 +44,8 @@ const opt::Table<LabelOptions>& LabelOptions::table() {
        "photographs) for recordings and cameras, models/edgefusion-seg.efm for the synthetic rooms "
        "($EDGEFUSION_MODEL overrides both)"},
       {"out", "labels_out", "--labels-out", &LabelOptions::out, "a folder", opt::any(),
-       "folder for the map's labels rendered into every out_every-th frame as it arrives (class-id PNGs)"},
+       "folder for the map's labels rendered into every out_every-th frame as it arrives (class-id PNGs; the same "
+       "in the paper's palette into the folder beside it, named like it with _color)"},
       {"out_every", "labels_out_every", "--labels-out-every", &LabelOptions::out_every, "frames",
        opt::between(1, 1'000'000), "write every K-th frame's rendering, counted from the first"},
       {"final_out", "labels_final_out", "--labels-final-out", &LabelOptions::final_out, "a folder", opt::any(),

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <thread>
 
+#include "io/image_codec.h"
 #include "io/label_image.h"
 #include "pipeline/cnn_worker.h"
 #include "pipeline/model_paths.h"
@@ -32,7 +33,14 @@ std::string RunSemantics::model_path(const LabelOptions& labels, const std::stri
 }
 
 std::size_t RunSemantics::rendering_bytes_for(int working_width, int working_height) {
-  return std::size_t(working_width) * std::size_t(working_height);
+  // The class ids, and their palette colours for the images beside them.
+  return std::size_t(working_width) * std::size_t(working_height) * (1 + sizeof(Rgb8));
+}
+
+std::string color_label_folder(const std::string& labels_out) {
+  std::string dir = labels_out;
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  return dir + "_color";
 }
 
 semantic::LabelFusionOptions RunSemantics::fusion_options(const SemanticsOptions& options, int working_width,
@@ -100,10 +108,13 @@ Result<std::unique_ptr<RunSemantics>> RunSemantics::create(const SemanticsOption
   s->poses_.assign(kPoseHistory, PoseRecord{});
 
   s->rendered_.allocate(working.width, working.height);
+  s->rendered_color_.allocate(working.width, working.height);
   s->class_id_.assign(static_cast<std::size_t>(options.pool_capacity), 0);
   s->class_prob_.assign(static_cast<std::size_t>(options.pool_capacity), 0.0f);
 
-  for (const std::string& dir : {options.labels.out, options.labels.final_out}) {
+  for (const std::string& dir : {options.labels.out, options.labels.out.empty() ? std::string() :
+                                                     color_label_folder(options.labels.out),
+                                 options.labels.final_out}) {
     if (dir.empty()) continue;
     std::error_code ec;
     std::filesystem::create_directories(dir, ec);
@@ -316,6 +327,9 @@ Status RunSemantics::write_rendering(const Frame& working, const CnnResult& cnn,
     if (!r.ok()) return r.take_error();
   }
   EF_RETURN_IF_ERROR(write_label_png_ids(label_image_path(options_.labels.out, working), rendered_.view()));
+  // The same in the paper's palette, for eyes (the ids above are for `edgefusion eval labels`).
+  colorize_labels(rendered_.cview(), rendered_color_.view());
+  EF_RETURN_IF_ERROR(write_png(label_image_path(color_label_folder(options_.labels.out), working), rendered_color_.cview()));
   stats_->increment(c_label_images_);
   return Status::success();
 }

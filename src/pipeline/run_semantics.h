@@ -63,6 +63,10 @@ struct SemanticsOptions {
 // pool's (crf_options_for_run).
 SemanticsOptions semantics_options(const RunConfig& config, int64_t crf_nodes = 0);
 
+// The folder of labels.out's palette images: "<labels.out>_color" beside it (out/labels ->
+// out/labels_color, as `segment` names its two folders).
+std::string color_label_folder(const std::string& labels_out);
+
 // DIR/<frame name>.png, the label image of `frame` (its index, 6 digits, where it has no name): the
 // names `edgefusion convert --to tum:` gives its labels, so `edgefusion eval labels` pairs them.
 std::string label_image_path(const std::string& dir, const Frame& frame);
@@ -185,6 +189,7 @@ class RunSemantics {
   McapFrameLog* log_ = nullptr;
   McapFrameLog::Encoder* log_encoder_ = nullptr;
   Image<uint8_t> rendered_;                  // the map's labels at the working size
+  Image<Rgb8> rendered_color_;               // the same in the paper's palette (labels.out's _color folder)
   std::vector<uint8_t> class_id_;            // map.ply columns, one per pool slot
   std::vector<float> class_prob_;
   StageStats* stats_ = nullptr;

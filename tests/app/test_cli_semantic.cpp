@@ -53,7 +53,7 @@ TEST(CliSemantic, RunFusesLabelsRendersThemAndWritesClassColumns) {
                 "--deterministic", "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   // The label folder is among the paths printed at the end (issue 33, rough edge 11).
-  EXPECT_NE(r.out.find("labels: " + (dir / "labels").string() + " (3 images, every 4 frames)"), std::string::npos)
+  EXPECT_NE(r.out.find("labels: " + (dir / "labels").string() + " (3 images, every 4 frames;"), std::string::npos)
       << r.out;
   EXPECT_EQ(r.out.find("surfel pool full"), std::string::npos) << r.out;
 

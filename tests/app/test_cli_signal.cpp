@@ -11,6 +11,7 @@
 #include "app/cli_test_util.h"
 #include "firmware_app/stop_signal.h"
 #include "io/ply_writer.h"
+#include "io/image_codec.h"
 #include "io/trajectory_io.h"
 #include "test_support.h"
 
@@ -81,6 +82,36 @@ TEST(CliRealtime, ReplayAtRecordedSpeedTakesTheRecordedTime) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_GE(seconds, 9.0 / 30.0 - 0.005);
   EXPECT_NE(read_file(dir / "stats.json").find("\"frames\":10,"), std::string::npos);
+}
+
+// `segment` on SIGTERM (issue 33, rough edge 10): it finishes the frame in hand, prints its summary
+// saying it was stopped, and exits 0 with whole images.
+TEST(CliSignal, SegmentStopsOnSigtermWithItsSummary) {
+  const auto dir = test::scratch_dir("cli-signal-segment");
+  const auto labels = dir / "labels";
+  std::thread killer([labels] {
+    for (int i = 0; i < 6000; ++i) {
+      std::error_code ec;
+      if (std::filesystem::exists(labels, ec) && !std::filesystem::is_empty(labels, ec)) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    std::raise(SIGTERM);
+  });
+  const auto r = cli({"segment", "--source", "synthetic:?frames=1000&size=160x120", "--out", dir.string(), "--quiet"});
+  killer.join();
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("SIGTERM received after"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("; stopped by a signal"), std::string::npos) << r.out;
+  int images = 0;
+  for (const auto& e : std::filesystem::directory_iterator(labels)) {
+    Image<uint8_t> ids;
+    EXPECT_TRUE(read_png_u8(e.path().string(), ids).ok()) << e.path();
+    ++images;
+  }
+  EXPECT_GT(images, 0);
+  EXPECT_LT(images, 1000);
+  EXPECT_NE(r.out.find("segmented " + std::to_string(images) + " of "), std::string::npos) << r.out;
 }
 
 }  // namespace

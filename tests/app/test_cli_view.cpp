@@ -6,6 +6,7 @@
 #include <string>
 
 #include "app/cli_test_util.h"
+#include "core/classes.h"
 #include "core/image.h"
 #include "io/image_codec.h"
 #include "test_support.h"
@@ -54,6 +55,34 @@ TEST(CliView, RunWritesAPreviewAndViewDrawsEveryFormOfAMap) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(fs::exists(dir / "plain" / "preview.png"));
   EXPECT_EQ(r.out.find("preview:"), std::string::npos) << r.out;
+}
+
+// --labels-out DIR: the class ids for `eval labels`, and beside them (DIR_color) the same images in
+// the paper's palette, one for one.
+TEST(CliView, LabelImagesComeWithPaletteImagesBesideThem) {
+  const auto dir = test::scratch_dir("cli-view-labels");
+  const std::string labels = (dir / "labels").string();
+  auto r = cli({"run", "--source", "synthetic:?frames=20&size=160x120", "--resolution", "160x120", "--out",
+                (dir / "run").string(), "--labels-out", labels + "/", "--labels-out-every", "5", "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("labels: " + labels + "/ (4 images, every 5 frames; in the palette: " + labels + "_color)"),
+            std::string::npos)
+      << r.out;
+  int pairs = 0;
+  for (const auto& e : fs::directory_iterator(labels)) {
+    Image<uint8_t> ids;
+    ASSERT_TRUE(read_png_u8(e.path().string(), ids).ok()) << e.path();
+    Image<Rgb8> colour;
+    const fs::path twin = fs::path(labels + "_color") / e.path().filename();
+    ASSERT_TRUE(read_color_image(twin.string(), colour).ok()) << twin;
+    ASSERT_EQ(colour.width(), ids.width());
+    ASSERT_EQ(colour.height(), ids.height());
+    for (int y = 0; y < ids.height(); ++y)
+      for (int x = 0; x < ids.width(); ++x)
+        ASSERT_EQ(colour.view()(x, y), class_color(ids.view()(x, y))) << twin << " at " << x << "," << y;
+    ++pairs;
+  }
+  EXPECT_EQ(pairs, 4);
 }
 
 TEST(CliView, BadOptionsAreNamed) {
