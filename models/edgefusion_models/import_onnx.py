@@ -47,21 +47,36 @@ def parse_args(argv):
     return p.parse_args(argv)
 
 
+def progress(args, text):
+    """One line per stage on stderr, so that a long import shows where it is."""
+    if not args.quiet:
+        print(f"model import: {text}", file=sys.stderr, flush=True)
+
+
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
     name = args.name or os.path.splitext(os.path.basename(args.onnx))[0]
+    if not os.path.isfile(args.onnx):
+        print(f"{args.onnx}: no such file", file=sys.stderr)
+        return 2
+    progress(args, f"reading {args.onnx}")
     try:
         g = from_onnx(args.onnx, args.mean, args.scale,
                       args.class_names.split(",") if args.class_names else None, name)
     except UnsupportedModelError as e:
         print(f"{args.onnx}: {e}", file=sys.stderr)
         return 2
+    except Exception as e:  # noqa: BLE001 - onnx's protobuf parser and checker raise types of their own
+        print(f"{args.onnx}: not a readable ONNX model ({type(e).__name__}: {e})", file=sys.stderr)
+        return 2
     h, w, _ = g.input_shape
+    progress(args, f"calibration: {args.frames} frames of {args.calibration} at {w}x{h}")
     try:
         raw = calibration.load_uri(args.calibration, w, h, args.frames, args.edgefusion)
     except (OSError, RuntimeError, ValueError) as e:
         print(f"{args.calibration}: calibration frames: {e}", file=sys.stderr)
         return 1
+    progress(args, f"quantising to int8 on {len(raw)} frames and writing {args.out}")
     export_graph(g, raw, args.out, args.golden_dir, 0,
                  f"{g.name} imported from ONNX, calibrated on {len(raw)} frames; golden input = calibration frame 0",
                  depth_max=args.depth_max, concat_policy=args.concat,

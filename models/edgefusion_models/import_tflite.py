@@ -118,23 +118,36 @@ def build_graph(args):
     return g
 
 
+def progress(args, text):
+    """One line per stage on stderr, so that a long import shows where it is."""
+    if not args.quiet:
+        print(f"model import: {text}", file=sys.stderr, flush=True)
+
+
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
+    if not os.path.isfile(args.tflite):
+        print(f"{args.tflite}: no such file", file=sys.stderr)
+        return 2
+    progress(args, f"reading {args.tflite}")
     try:
         g = build_graph(args)
     except (UnsupportedModelError, tflite.TFLiteError) as e:
-        print(f"{args.tflite}: {e}", file=sys.stderr)
+        text = str(e)  # the reader's messages may name the file already
+        print(text if text.startswith(args.tflite) else f"{args.tflite}: {text}", file=sys.stderr)
         return 2
     except (OSError, ValueError) as e:
         print(f"{e}", file=sys.stderr)
         return 2
     h, w, _ = g.input_shape
+    progress(args, f"calibration: {args.frames} frames of {args.calibration} at {w}x{h}")
     try:
         raw = load_calibration(args.calibration, w, h, args.frames, args.edgefusion)
     except (OSError, RuntimeError, ValueError) as e:
         print(f"{args.calibration}: calibration frames: {e}", file=sys.stderr)
         return 1
     raw = raw[..., :g.input_shape[2]]  # an RGB network takes R, G, B only
+    progress(args, f"quantising to int8 on {len(raw)} frames and writing {args.out}")
     export_graph(g, raw, args.out, args.golden_dir, 0,
                  f"{g.name} imported from TFLite at {w}x{h}, calibrated on {len(raw)} frames; "
                  "golden input = calibration frame 0",

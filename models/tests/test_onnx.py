@@ -84,6 +84,27 @@ class OnnxImportTest(unittest.TestCase):
         self.assertIn("node 'gate' (Sigmoid): no sigmoid layer", msg)
         self.assertIn("node 'scale_by_gate' (Mul): no elementwise multiplication", msg)
 
+    def test_missing_and_garbage_files_are_named_without_a_traceback(self):
+        # Issue 33, rough edge 6: a clear line naming the file and exit status 2, no Python traceback.
+        with tempfile.TemporaryDirectory() as d:
+            garbage = os.path.join(d, "garbage.onnx")
+            with open(garbage, "wb") as f:
+                f.write(b"this is not a protobuf\n" * 10)
+            for path, says in ((os.path.join(d, "missing.onnx"), "no such file"),
+                               (garbage, "not a readable ONNX model")):
+                err = io.StringIO()
+                old, sys.stderr = sys.stderr, err
+                try:
+                    code = import_onnx.main(["--onnx", path, "--calibration", "npz:none.npz",
+                                             "--out", os.path.join(d, "m.efm")])
+                finally:
+                    sys.stderr = old
+                self.assertEqual(code, 2, err.getvalue())
+                self.assertIn(path, err.getvalue())
+                self.assertIn(says, err.getvalue())
+                self.assertNotIn("Traceback", err.getvalue())
+                self.assertFalse(os.path.exists(os.path.join(d, "m.efm")))
+
     def test_opset10_clip_attributes_and_resize(self):
         scales = numpy_helper.from_array(np.array([1, 1, 2, 2], np.float32), "sc")
         m = conv_sigmoid_model([helper.make_node("Clip", ["c"], ["r"], name="relu6", min=0.0, max=6.0),
