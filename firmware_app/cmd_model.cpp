@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <climits>
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -179,16 +180,39 @@ int model_info(int argc, char** argv) {
   std::printf("%-20s %zu\n", "packed_weight_bytes", (*ex)->packed_bytes());
   std::printf("%-20s %s\n", "kernel_isa", semantic::kernel_isa_summary(**ex, d.layers.size()).c_str());
 
-  std::printf("\n%5s  %-17s %-12s %-26s %-24s %10s\n", "layer", "type", "kernel", "input -> output", "kernel variant",
-              "MMAC");
+  // The layer table, each column as wide as its longest entry (issue 33: rows stay aligned whatever
+  // the model's shapes and kernel names).
+  struct Row {
+    std::string type, kernel, io, variant;
+  };
+  std::vector<Row> rows;
+  std::size_t w_type = 4, w_kernel = 6, w_io = 15, w_variant = 14;
   for (std::size_t i = 0; i < d.layers.size(); ++i) {
     const nn::LayerDesc& l = d.layers[i];
-    std::string io = shape_text(d.tensors[l.inputs[0]]);
-    if (l.inputs.size() > 1) io += " +" + std::to_string(l.inputs.size() - 1);
-    io += " -> " + shape_text(d.tensors[l.output]);
+    Row r;
+    r.type = nn::layer_type_name(l.type);
+    r.kernel = geometry_text(l);
+    r.io = shape_text(d.tensors[l.inputs[0]]);
+    if (l.inputs.size() > 1) r.io += " +" + std::to_string(l.inputs.size() - 1);
+    r.io += " -> " + shape_text(d.tensors[l.output]);
     const char* variant = (*ex)->kernel_name(i);
-    std::printf("%5zu  %-17s %-12s %-26s %-24s %10.3f\n", i, nn::layer_type_name(l.type), geometry_text(l).c_str(),
-                io.c_str(), *variant ? variant : "(reference)", double(stats.layers[i].macs) * 1e-6);
+    r.variant = *variant ? variant : "(reference)";
+    w_type = std::max(w_type, r.type.size());
+    w_kernel = std::max(w_kernel, r.kernel.size());
+    w_io = std::max(w_io, r.io.size());
+    w_variant = std::max(w_variant, r.variant.size());
+    rows.push_back(std::move(r));
+  }
+  const auto row = [&](const std::string& n, const Row& r, const std::string& macs) {
+    std::printf("%5s  %-*s  %-*s  %-*s  %-*s  %10s\n", n.c_str(), int(w_type), r.type.c_str(), int(w_kernel),
+                r.kernel.c_str(), int(w_io), r.io.c_str(), int(w_variant), r.variant.c_str(), macs.c_str());
+  };
+  std::printf("\n");
+  row("layer", Row{"type", "kernel", "input -> output", "kernel variant"}, "MMAC");
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    char macs[32];
+    std::snprintf(macs, sizeof macs, "%.3f", double(stats.layers[i].macs) * 1e-6);
+    row(std::to_string(i), rows[i], macs);
   }
   return 0;
 }

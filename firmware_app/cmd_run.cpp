@@ -225,7 +225,12 @@ int cmd_run(int argc, char** argv) {
   auto gpio_or = open_gpio_lines(config.gpio);
   if (!gpio_or.ok()) return report_error(kCmd, gpio_or.error(), 2);
   GpioLines gpio = std::move(*gpio_or);
-  if (!gpio.warnings.empty()) std::fprintf(stderr, "%s: warning: %s\n", kCmd, gpio.warnings.c_str());
+  // One "warning:" line per line the panel gave (issue 33: no doubled prefix, no blank line).
+  for (std::size_t at = 0; at < gpio.warnings.size();) {
+    const std::size_t end = std::min(gpio.warnings.find('\n', at), gpio.warnings.size());
+    report_warning(kCmd, gpio.warnings.substr(at, end - at));
+    at = end + 1;
+  }
 
   auto source_or = open_source(config.run.source);
   if (!source_or.ok()) {

@@ -48,7 +48,7 @@ Result<GpioLines> open_gpio_lines(const GpioOptions& options) {
   // An absent line is an error unless GPIO is optional; then the run goes on without it.
   const auto fail = [&](const char* what, Error err) -> Status {
     if (!options.optional) return error(err.code, std::string("GPIO ") + what + ": " + err.message);
-    lines.warnings += std::string("warning: GPIO ") + what + " disabled: " + err.message + "\n";
+    lines.warnings += std::string("GPIO ") + what + " disabled: " + err.message + "\n";
     return Status();
   };
   if (options.led.used()) {

@@ -76,8 +76,11 @@ TEST(CliCamera, MissingGpioChipIsAnErrorOrAWarning) {
   std::ofstream(cfg, std::ios::app) << "  optional: true\n";
   r = cli({"run", "--config", cfg.string(), "--out", (dir / "b").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.err.find("warning"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("edgefusion run: warning: GPIO status LED disabled: "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("gpiochip-absent-7"), std::string::npos) << r.err;
+  // Issue 33, rough edge 9: one prefix, no blank line after it.
+  EXPECT_EQ(r.err.find("warning: warning:"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("\n\n"), std::string::npos) << r.err;
   EXPECT_NE(read_file(dir / "b" / "stats.json").find("\"frames\":2,"), std::string::npos);
 }
 

@@ -224,6 +224,24 @@ TEST(CliModel, InfoPrintsShapesClassesCostsAndKernels) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("conv_i8_ref"), std::string::npos) << r.out;
 
+  // The layer table's rows line up (issue 33, rough edge 9): the header and every row end at the
+  // same column, and each row's MMAC figure sits under the header's "MMAC", whatever the names.
+  for (const std::string& shipped : {std::string(EF_SOURCE_DIR) + "/models/deeplabv3-mnv2-nyu13.efm", model.string()}) {
+    r = cli({"model", "info", shipped});
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto table = r.out.find("\nlayer  ");
+    ASSERT_NE(table, std::string::npos) << r.out;
+    std::istringstream lines(r.out.substr(table + 1));
+    std::string header, line;
+    std::getline(lines, header);
+    int rows = 0;
+    while (std::getline(lines, line) && !line.empty()) {
+      EXPECT_EQ(line.size(), header.size()) << shipped << ":\n" << header << "\n" << line;
+      ++rows;
+    }
+    EXPECT_EQ(rows, static_cast<int>(metric(r.out, "layers"))) << shipped;
+  }
+
   std::ofstream(dir / "junk.efm") << "not a model";
   r = cli({"model", "info", (dir / "junk.efm").string()});
   EXPECT_EQ(r.code, 1);
