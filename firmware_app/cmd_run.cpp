@@ -114,6 +114,13 @@ class PanelObserver : public RunObserver {
     const slam::SlamFrameResult& r = pipeline.mapping().last_result();
     set_led(r.lost ? LedPattern::kLost : LedPattern::kTracking);
     const slam::SurfelSlam& slam = pipeline.slam();
+    if (!late_warned_ && pipeline.realtime_late_frames() > 0) {
+      late_warned_ = true;
+      std::fprintf(stderr,
+                   "\n%s: warning: this machine does not keep up with the recording's rate (--realtime): frames go "
+                   "out more than %.0f ms late (counted: realtime_frames_late in stats.json)\n",
+                   cmd_, FrontStage::kRealtimeLateSeconds * 1000.0);
+    }
     if (!pool_full_warned_ && slam.pool().full()) {
       // Once: from here on the map keeps the view by forgetting what it left longest ago.
       pool_full_warned_ = true;
@@ -165,6 +172,7 @@ class PanelObserver : public RunObserver {
   ServiceNotifier notifier_;
   bool panel_failed_ = false;
   bool pool_full_warned_ = false;
+  bool late_warned_ = false;
   std::chrono::steady_clock::time_point start_;
   char line_[128] = {};
 };
@@ -334,6 +342,10 @@ int cmd_run(int argc, char** argv) {
                 "refused\n",
                 static_cast<long long>(slam.pool().capacity()), static_cast<unsigned long long>(pool.evicted),
                 static_cast<unsigned long long>(pool.refused));
+  if (config.run.realtime && !info.live)
+    std::printf("realtime: %llu of %lld frames late by more than %.0f ms (at most %.2f s behind the recording)\n",
+                static_cast<unsigned long long>(pipeline.realtime_late_frames()), static_cast<long long>(outcome.frames),
+                FrontStage::kRealtimeLateSeconds * 1000.0, static_cast<double>(pipeline.realtime_max_late_ms()) / 1000.0);
   if (files.wrote_trajectory && files.trajectory_corrected + files.trajectory_kept > 0)
     std::printf("trajectory: %s (%lld poses corrected by loop closure, %lld older ones as tracked)\n",
                 files.trajectory.c_str(), static_cast<long long>(files.trajectory_corrected),

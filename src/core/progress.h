@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -16,6 +17,15 @@ class Progress {
   void update(int64_t done, const char* extra = "");
   // Ends the line (prints the final state).
   void finish(int64_t done);
+
+  // The line's text (no terminal control): "run: frame 120/1000  30.0 fps  4.0 s  ETA 0:29  extra";
+  // the ETA (the time left at the rate so far, m:ss) only while a known total is not reached.
+  // format_line writes it into `out` (cut at `size`; no allocation: print() uses a stack buffer);
+  // line() returns it (tests).
+  static void format_line(char* out, std::size_t size, const char* label, int64_t done, int64_t total,
+                          double elapsed_s, const char* extra, bool final_line);
+  static std::string line(const std::string& label, int64_t done, int64_t total, double elapsed_s, const char* extra,
+                          bool final_line);
 
  private:
   void print(int64_t done, const char* extra, bool final_line);

@@ -76,8 +76,18 @@ void FrontStage::pace(double timestamp) {
     replay_t0_ = timestamp;
     return;
   }
-  std::this_thread::sleep_until(replay_wall_start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                         std::chrono::duration<double>(timestamp - replay_t0_)));
+  const auto due = replay_wall_start_ + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                            std::chrono::duration<double>(timestamp - replay_t0_));
+  const double behind = std::chrono::duration<double>(std::chrono::steady_clock::now() - due).count();
+  if (behind > kRealtimeLateSeconds) {
+    // The machine does not keep up with the recording: the frame goes out late (never dropped:
+    // a replay loses nothing), and that is counted.
+    late_frames_.fetch_add(1, std::memory_order_relaxed);
+    const int64_t ms = static_cast<int64_t>(behind * 1000.0);
+    if (ms > max_late_ms_.load(std::memory_order_relaxed)) max_late_ms_.store(ms, std::memory_order_relaxed);
+    return;
+  }
+  std::this_thread::sleep_until(due);
 }
 
 FrontStage::Step FrontStage::step(PreparedFrame& slot) {

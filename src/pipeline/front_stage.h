@@ -111,6 +111,11 @@ class FrontStage {
   }
   // Label updates the CNN was too busy to take (see above).
   uint64_t cnn_skipped() const { return cnn_skipped_.load(std::memory_order_relaxed); }
+  // --realtime: frames released more than kRealtimeLateSeconds after their recorded time (the
+  // machine does not keep up; a replay delays them, never drops them), and the most behind, ms.
+  static constexpr double kRealtimeLateSeconds = 0.1;
+  uint64_t realtime_late_frames() const { return late_frames_.load(std::memory_order_relaxed); }
+  int64_t realtime_max_late_ms() const { return max_late_ms_.load(std::memory_order_relaxed); }
 
   // Asks the stage to end: a live camera's capture thread stops, and the frames it had already
   // captured still come out before the end marker; a recording ends at the next step(). Any thread.
@@ -143,6 +148,8 @@ class FrontStage {
   bool deterministic_ = false;
   bool cnn_request_ = false;  // a label update is due and the CNN has not taken a frame for it yet
   std::atomic<uint64_t> cnn_skipped_{0};
+  std::atomic<uint64_t> late_frames_{0};  // written by the front thread, read by mapping
+  std::atomic<int64_t> max_late_ms_{0};
   std::unique_ptr<CaptureThread> capture_;  // live sources only
   Frame input_;                             // a recording's frame at its own size
   std::atomic<bool> stop_{false};

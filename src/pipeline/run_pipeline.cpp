@@ -150,7 +150,8 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   p->c_ = CounterIds{stats.add_counter("camera_lost"),     stats.add_counter("corrupt_frames_dropped"),
                      stats.add_counter("frames_dropped_overload"), stats.add_counter("surfels_created"),
                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
-                     stats.add_counter("surfels_refused"), stats.add_counter("cnn_frames_skipped")};
+                     stats.add_counter("surfels_refused"), stats.add_counter("cnn_frames_skipped"),
+                     stats.add_counter("realtime_frames_late")};
   p->st_checkpoint_ = stats.add_stage(kStageNames[0]);
   p->st_log_map_ = stats.add_stage(kStageNames[1]);
 
@@ -189,6 +190,7 @@ void RunPipeline::update_counters() {
   stats_.set_counter(c_.dropped_overload, front_->dropped_overload());
   stats_.set_counter(c_.corrupt_dropped, front_->corrupt_dropped());
   if (cnn_ != nullptr) stats_.set_counter(c_.cnn_skipped, front_->cnn_skipped());
+  stats_.set_counter(c_.realtime_late, front_->realtime_late_frames());
   const slam::SurfelPoolCounters& pc = mapping_->slam().pool().counters();
   stats_.set_counter(c_.surfels_created, pc.created);
   stats_.set_counter(c_.surfels_removed, pc.removed);

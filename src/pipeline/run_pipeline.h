@@ -138,6 +138,9 @@ class RunPipeline {
   const RunSemantics* semantics() const { return semantics_.get(); }
   // Frames dropped so far: a live camera's overload (ring full) plus the frames it reported corrupt.
   uint64_t frames_dropped() const { return front_->dropped_overload() + front_->corrupt_dropped(); }
+  // --realtime: frames the machine released late (FrontStage::kRealtimeLateSeconds) and the most, ms.
+  uint64_t realtime_late_frames() const { return front_->realtime_late_frames(); }
+  int64_t realtime_max_late_ms() const { return front_->realtime_max_late_ms(); }
   // Bytes of one prepared slot (working frame, pyramids), for the memory line.
   std::size_t slot_bytes() const { return slot_bytes_; }
   // Bytes of the CNN's jobs (0 without labels).
@@ -214,7 +217,7 @@ class RunPipeline {
   int st_log_map_ = -1;  // the map written into the field log at a checkpoint
   struct CounterIds {
     int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,
-        surfels_refused, cnn_skipped;
+        surfels_refused, cnn_skipped, realtime_late;
   } c_{};
 };
 

@@ -331,6 +331,31 @@ TEST(Pipeline, VanishingCameraLeavesCompleteOutputs) {
   }
 }
 
+// --realtime on a recording the machine cannot keep up with (issue 33): a source that takes 100 ms
+// per frame recorded at 30 Hz falls further behind with every frame; the late frames are counted
+// (and still mapped: a replay drops nothing), with the most behind.
+TEST(Pipeline, RealtimeCountsTheFramesTheMachineReleasesLate) {
+  const auto dir = test::scratch_dir("pipeline-realtime-late");
+  LoopSource slow(6, 15, /*live=*/false, std::nullopt, std::chrono::milliseconds(100));
+  StageStats stats;
+  pipeline::RunConfig c = small_run(dir, tiny_model(dir), 1);
+  c.labels.enabled = false;
+  c.run.realtime = true;
+  auto p = pipeline::RunPipeline::create(c, slow, stats);
+  ASSERT_TRUE(p.ok()) << to_string(p.error());
+  pipeline::RunObserver none;
+  const pipeline::RunOutcome outcome = (*p)->run(none);
+  EXPECT_EQ(outcome.frames, 15) << "late frames are mapped, not dropped";
+  // Frame k is due k/30 s after the first and comes k/10 s after it: more than 100 ms late from
+  // the third frame on.
+  EXPECT_GE((*p)->realtime_late_frames(), 11u);
+  EXPECT_LE((*p)->realtime_late_frames(), 14u);
+  EXPECT_GE((*p)->realtime_max_late_ms(), 800);
+  const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
+  EXPECT_NE(read_file(files.stats).find("\"realtime_frames_late\":" + std::to_string((*p)->realtime_late_frames())),
+            std::string::npos);
+}
+
 TEST(Pipeline, BadCoreIsAnErrorNamingTheKey) {
   const auto dir = test::scratch_dir("pipeline-bad-core");
   LoopSource source(4, 4);

@@ -12,7 +12,7 @@ function(dry expected)
   endif()
 endfunction()
 
-dry("--source synthetic: --out out/run --overwrite")
+dry("--source synthetic:?size=320x240 --out out/run --overwrite")
 dry("--source 7scenes:x --out out/run --overwrite" ARGS --source 7scenes:x)
 dry("--source 7scenes:x --out /tmp/o --overwrite" ARGS --source 7scenes:x ENV EF_OUT=/tmp/o)
 # The user's own folder: as given, once, and not overwritten unless asked.
