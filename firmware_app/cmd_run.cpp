@@ -354,6 +354,7 @@ int cmd_run(int argc, char** argv) {
     std::printf("trajectory: %s\n", files.trajectory.c_str());
   if (files.wrote_map) std::printf("map: %s\n", files.map.c_str());
   if (files.wrote_preview) std::printf("preview: %s\n", files.preview.c_str());
+  if (files.wrote_report) std::printf("report: %s\n", files.report.c_str());
   if (files.wrote_stats) std::printf("stats: %s\n", files.stats.c_str());
   if (!config.labels.out.empty()) {
     const int written = stats.counter_id("label_images_written");

@@ -6,7 +6,8 @@
 #   install-deps.sh test       + test tools (GoogleTest, clang/libFuzzer, python3-open3d for the PLY check,
 #                              XNNPACK, pthreadpool, cpuinfo for bench_nn_conv's comparison, PyTorch, ONNX
 #                              and OpenCV for Python for the tests of models/, Node.js with the npm readers of
-#                              tests/npm: @mcap/core and Foxglove's ROS 2 message readers, for the field logs)
+#                              tests/npm: @mcap/core and Foxglove's ROS 2 message readers, for the field logs;
+#                              Chromium, which renders report.html headless in tests/scripts/report_html.cmake)
 #   install-deps.sh cross      + aarch64 cross compiler, arm64 multiarch libraries, qemu-user
 #   install-deps.sh package    cross + what scripts/package.sh and tests/package/check_packages.sh use:
 #                              dpkg-dev (dpkg-shlibdeps), lintian, systemd (systemd-analyze verify), fakeroot
@@ -24,7 +25,7 @@ base_pkgs=(build-essential cmake ninja-build pkg-config git
            libopenni2-dev libv4l-dev libgpiod-dev libyaml-cpp-dev libsystemd-dev)
 test_pkgs=(libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev python3 python3-numpy python3-open3d
            libxnnpack-dev libpthreadpool-dev libcpuinfo-dev
-           python3-torch python3-onnx python3-opencv nodejs)
+           python3-torch python3-onnx python3-opencv nodejs chromium)
 models_pkgs=(python3 python3-numpy python3-torch python3-onnx python3-opencv)
 cross_pkgs=(g++-aarch64-linux-gnu qemu-user
             libpng-dev:arm64 libjpeg62-turbo-dev:arm64 zlib1g-dev:arm64

@@ -52,6 +52,7 @@ struct RunOptions {
   bool progress = true;                     // progress line on stderr
   bool map = true;                          // write map.ply at the end of the run
   bool preview = true;                      // write preview.png at the end (pipeline/map_preview.h)
+  bool report = true;                       // write report.html at the end (pipeline/run_report.h)
   bool realtime = false;                    // replays paced by their timestamps (cameras pace themselves)
 
   static const opt::Table<RunOptions>& table();

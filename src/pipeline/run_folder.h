@@ -23,7 +23,8 @@ namespace ef::pipeline {
 
 // The outputs that make a folder a run's.
 inline constexpr const char* kRunFiles[] = {"trajectory.txt", "map.ply", "stats.json", "checkpoint.efs",
-                                            "checkpoint.prev.efs", "config.yaml", "log.mcap", "preview.png"};
+                                            "checkpoint.prev.efs", "config.yaml", "log.mcap", "preview.png",
+                                            "report.html"};
 inline constexpr const char* kTimePlaceholder = "{time}";
 
 // Ok when `out` can take a new run: it has "{time}", does not exist, or holds no run's outputs (or

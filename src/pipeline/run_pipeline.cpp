@@ -169,6 +169,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   // stats.json from the start, so that a run killed at any moment leaves one that says "running".
   // Its text's room is reserved now (a few kB; 64 kB holds 32 stages and 64 counters).
   p->stats_json_.reserve(64 * 1024);
+  p->rate_.reserve(kRateSamples);
   // In the order of the StatsExtra indices (run_pipeline.h).
   p->stats_extra_ = {{"width", static_cast<double>(config.run.resolution.width)},
                      {"height", static_cast<double>(config.run.resolution.height)},
@@ -265,6 +266,18 @@ Status RunPipeline::maybe_checkpoint() {
   return checkpoint(std::chrono::duration<double>(now - start_).count());
 }
 
+void RunPipeline::sample_rate(std::chrono::steady_clock::time_point now) {
+  const double t = std::chrono::duration<double>(now - start_).count();
+  if (!rate_.empty() && t - rate_.back().seconds < rate_interval_) return;
+  if (rate_.size() == kRateSamples) {
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < rate_.size(); j += 2) rate_[k++] = rate_[j];
+    rate_.resize(k);
+    rate_interval_ *= 2;
+  }
+  rate_.push_back(RateSample{t, mapping_->frames()});
+}
+
 Status RunPipeline::maybe_write_stats() {
   const auto now = std::chrono::steady_clock::now();
   if (!stats_every_.due(now)) return Status::success();
@@ -355,6 +368,7 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
     // output's failure.
     Status s = maybe_checkpoint();
     if (s.ok()) s = maybe_write_stats();
+    if (config_.run.preview) sample_rate(std::chrono::steady_clock::now());
     if (!s.ok()) {
       outcome.error = s.error();
       break;
@@ -418,21 +432,59 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
     if (Status s = write_surfel_ply(out.map, cloud, comment); !s.ok()) out.errors.push_back(s.error());
     else out.wrote_map = true;
   }
-  if (config_.run.preview && mapped) {
-    // The picture of the final map and the camera's path (trajectory.txt, as just written).
+  if ((config_.run.preview || config_.run.report) && mapped) {
+    // The picture of the final map, and the page about the run, with the camera's path
+    // (trajectory.txt, as just written).
     SurfelCloudView cloud = slam::surfel_cloud_view(slam.pool());
     if (semantics_ != nullptr) semantics_->add_label_columns(slam.pool(), cloud);
     auto path = out.wrote_trajectory ? read_preview_path(out.trajectory) : Result<std::vector<SE3>>(std::vector<SE3>{});
-    PreviewOptions po;
-    po.width = kPreviewWidth;
-    po.height = kPreviewHeight;
-    po.title = config_.run.source + ", " + std::to_string(outcome.frames) + " frames";
-    const std::string preview = (dir / "preview.png").string();
-    Status s = path.ok() ? write_map_preview(preview, cloud, *path, po) : Status(path.error());
-    if (!s.ok()) out.errors.push_back(s.error());
-    else {
-      out.preview = preview;
-      out.wrote_preview = true;
+    if (!path.ok()) out.errors.push_back(path.error());
+    PreviewStats preview_stats;
+    if (config_.run.preview && path.ok()) {
+      PreviewOptions po;
+      po.width = kPreviewWidth;
+      po.height = kPreviewHeight;
+      po.title = config_.run.source + ", " + std::to_string(outcome.frames) + " frames";
+      const std::string preview = (dir / "preview.png").string();
+      if (Status s = write_map_preview(preview, cloud, *path, po, &preview_stats); !s.ok()) {
+        out.errors.push_back(s.error());
+      } else {
+        out.preview = preview;
+        out.wrote_preview = true;
+      }
+    }
+    if (config_.run.report && path.ok()) {
+      update_counters();
+      ReportInputs in;
+      in.title = config_.run.source;
+      in.state = outcome.error ? "failed: " + outcome.error->message
+                 : !out.errors.empty() ? "failed: " + out.errors.front().message
+                 : outcome.camera_lost ? "camera lost"
+                 : outcome.stopped     ? "stopped"
+                                       : "finished";
+      in.frames = outcome.frames;
+      in.seconds = outcome.seconds;
+      in.facts = {{"output folder", out_folder_},
+                  {"working resolution", std::to_string(config_.run.resolution.width) + "x" +
+                                             std::to_string(config_.run.resolution.height)},
+                  {"surfels", std::to_string(slam.pool().size()) + " of " + std::to_string(slam.pool().capacity())},
+                  {"lost frames / relocalised", std::to_string(slam.lost_frames()) + " / " +
+                                                    std::to_string(slam.relocalisations())},
+                  {"threads", std::to_string(config_.pipeline.threads)}};
+      if (semantics_ != nullptr) in.facts.emplace_back("labels", semantics_->describe());
+      in.stats = &stats_;
+      if (out.wrote_preview) in.preview_png = out.preview;
+      if (semantics_ != nullptr) in.class_counts = preview_stats.class_counts;
+      in.rate = rate_;
+      in.rate.push_back(RateSample{outcome.seconds, outcome.frames});
+      in.config_text = config_.describe();
+      const std::string report = (dir / "report.html").string();
+      if (Status s = write_run_report(report, in, top_view(cloud, *path)); !s.ok()) {
+        out.errors.push_back(s.error());
+      } else {
+        out.report = report;
+        out.wrote_report = true;
+      }
     }
   }
   if (log_ != nullptr) {

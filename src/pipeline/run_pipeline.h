@@ -67,6 +67,7 @@
 #include "io/stats_json.h"
 #include "pipeline/mapping_stage.h"
 #include "pipeline/run_config.h"
+#include "pipeline/run_report.h"
 #include "pipeline/run_semantics.h"
 
 namespace ef::pipeline {
@@ -95,6 +96,8 @@ struct OutputFiles {
   std::string trajectory, map, stats;  // paths in the output folder
   std::string preview;                 // preview.png (pipeline/map_preview.h), when written
   bool wrote_preview = false;
+  std::string report;                  // report.html (pipeline/run_report.h), when written
+  bool wrote_report = false;
   std::string log;                     // the field log, when the run has one
   bool wrote_trajectory = false, wrote_map = false, wrote_stats = false, wrote_log = false;
   uint64_t log_frames = 0;
@@ -210,6 +213,12 @@ class RunPipeline {
   enum StatsExtra { kExtraSurfels = 3, kExtraPeakRss = 7, kExtraCheckpoints = 9 };
   std::chrono::steady_clock::time_point start_;
   Every stats_every_, checkpoint_every_;
+  // The mapping rate over the run for report.html: (seconds, frames) every rate_interval_ seconds;
+  // when full, every other sample goes and the interval doubles (fixed memory, any run length).
+  static constexpr std::size_t kRateSamples = 512;
+  std::vector<RateSample> rate_;
+  double rate_interval_ = 1.0;
+  void sample_rate(std::chrono::steady_clock::time_point now);
   std::optional<CheckpointMeta> resumed_;  // the checkpoint this run continues
   std::string resume_warning_;             // a corrupt newest checkpoint, when the one before was used
   std::string checkpoint_names_;           // scratch for write_checkpoint()

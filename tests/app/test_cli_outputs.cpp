@@ -129,7 +129,7 @@ TEST(CliOutputs, ARunNeverOverwritesAnEarlierRun) {
   // The second run into the same folder is refused before anything is touched, and so is its plan.
   r = cli(run);
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("holds an earlier run (trajectory.txt, map.ply, stats.json, checkpoint.efs, config.yaml, preview.png)"),
+  EXPECT_NE(r.err.find("holds an earlier run (trajectory.txt, map.ply, stats.json, checkpoint.efs, config.yaml, preview.png, report.html)"),
             std::string::npos)
       << r.err;
   EXPECT_NE(r.err.find("--overwrite"), std::string::npos) << r.err;

@@ -49,12 +49,24 @@ TEST(CliView, RunWritesAPreviewAndViewDrawsEveryFormOfAMap) {
   ASSERT_TRUE(read_color_image((dir / "view-3.png").string(), small).ok());
   EXPECT_EQ(small.width(), 640);
 
-  // --no-preview: none written, none named.
+  // report.html beside it, naming the run and holding the preview (tests/scripts/report_html.cmake
+  // renders it in Chromium).
+  EXPECT_NE(r.out.find("report: " + (fs::path(out) / "report.html").string()), std::string::npos) << r.out;
+  const std::string page = read_file(fs::path(out) / "report.html");
+  EXPECT_EQ(page.rfind("<!DOCTYPE html>", 0), 0u);
+  EXPECT_NE(page.find("synthetic:?frames=30&amp;size=160x120"), std::string::npos) << "the source, HTML-escaped";
+  EXPECT_NE(page.find("<td>state</td><td>finished</td>"), std::string::npos);
+  EXPECT_NE(page.find("data:image/png;base64,iVBORw0KGgo"), std::string::npos) << "the PNG signature, base64";
+  EXPECT_NE(page.find("</html>"), std::string::npos);
+
+  // --no-preview --no-report: neither written, neither named.
   r = cli({"run", "--source", "synthetic:?frames=10&size=160x120", "--resolution", "160x120", "--no-labels",
-           "--no-preview", "--out", (dir / "plain").string(), "--quiet"});
+           "--no-preview", "--no-report", "--out", (dir / "plain").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(fs::exists(dir / "plain" / "preview.png"));
+  EXPECT_FALSE(fs::exists(dir / "plain" / "report.html"));
   EXPECT_EQ(r.out.find("preview:"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("report:"), std::string::npos) << r.out;
 }
 
 // --labels-out DIR: the class ids for `eval labels`, and beside them (DIR_color) the same images in
