@@ -16,6 +16,8 @@
 #include "pipeline/final_labels.h"
 #include "pipeline/front_stage.h"
 #include "pipeline/map_preview.h"
+#include "pipeline/run_report.h"
+#include "io/trajectory_io.h"
 #include "pipeline/mapping_stage.h"
 #include "pipeline/model_paths.h"
 #include "pipeline/run_pipeline.h"
@@ -196,7 +198,11 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
     }
   }
 
-  if (config.run.preview)
+  if (config.run.report)
+    add("run report", kReportRateSamples * sizeof(RateSample) + kReportReferencePoses * sizeof(TimedPose),
+        std::to_string(kReportRateSamples) + " rate samples + " + std::to_string(kReportReferencePoses) +
+            " reference poses, kept while mapping for report.html (pipeline/run_report.h)");
+  if (config.run.preview || config.run.report)
     add("map preview", map_preview_bytes_for(kPreviewWidth, kPreviewHeight),
         "after the run: preview.png, two " + size_text(kPreviewWidth, kPreviewHeight) +
             " panels, their depth buffer and the camera's path (pipeline/map_preview.h)");

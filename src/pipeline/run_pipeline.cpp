@@ -8,7 +8,9 @@
 
 #include <sys/resource.h>
 
+#include "eval/trajectory_eval.h"
 #include "io/ply_writer.h"
+#include "io/trajectory_io.h"
 #include "io/stats_json.h"
 #include "pipeline/checkpoint.h"
 #include "pipeline/map_preview.h"
@@ -170,6 +172,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
   // Its text's room is reserved now (a few kB; 64 kB holds 32 stages and 64 counters).
   p->stats_json_.reserve(64 * 1024);
   p->rate_.reserve(kRateSamples);
+  p->reference_.reserve(kReferencePoses);
   // In the order of the StatsExtra indices (run_pipeline.h).
   p->stats_extra_ = {{"width", static_cast<double>(config.run.resolution.width)},
                      {"height", static_cast<double>(config.run.resolution.height)},
@@ -305,6 +308,15 @@ bool RunPipeline::consume(PreparedFrame& slot, RunObserver& observer, RunOutcome
   if (Status s = mapping_->step(slot); !s.ok()) {
     outcome.error = s.error();
     return false;
+  }
+  if (slot.working.has_pose && config_.run.report && reference_seen_++ % reference_stride_ == 0) {
+    if (reference_.size() == kReferencePoses) {  // full: keep every other, take every 2k-th from now on
+      std::size_t k = 0;
+      for (std::size_t j = 0; j < reference_.size(); j += 2) reference_[k++] = reference_[j];
+      reference_.resize(k);
+      reference_stride_ *= 2;
+    }
+    reference_.push_back(TimedPose{slot.working.timestamp, slot.working.T_wc, false});
   }
   observer.frame_mapped(*this);
   return true;
@@ -478,8 +490,29 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
       in.rate = rate_;
       in.rate.push_back(RateSample{outcome.seconds, outcome.frames});
       in.config_text = config_.describe();
+      // Against the source's reference poses, where it has them: the ATE (eval/trajectory_eval.h,
+      // as `edgefusion eval ate`) over the reference poses kept, and the aligned reference path.
+      std::vector<Eigen::Vector3d> reference_path;
+      if (reference_.size() >= 3 && out.wrote_trajectory) {
+        Trajectory gt;
+        gt.source = config_.run.source + " (reference poses)";
+        gt.poses = reference_;
+        auto est = read_tum_trajectory(out.trajectory);
+        auto ate = est.ok() ? evaluate_ate(gt, *est) : Result<AteResult>(est.error());
+        if (ate.ok()) {
+          char text[160];
+          std::snprintf(text, sizeof text, "%.2f cm RMSE, %.2f cm median, %.2f cm max over %d poses%s",
+                        ate->rmse_m * 100, ate->median_m * 100, ate->max_m * 100, ate->pairs,
+                        reference_stride_ > 1 ? (" (every " + std::to_string(reference_stride_) + "th frame)").c_str() : "");
+          in.facts.emplace_back("ATE against the source's reference poses", text);
+          const SE3 T_est_gt = ate->T_gt_est.inverse();
+          for (const TimedPose& r : reference_) reference_path.push_back(T_est_gt * r.T_wc.translation());
+        } else {
+          in.facts.emplace_back("ATE against the source's reference poses", "not computed: " + ate.error().message);
+        }
+      }
       const std::string report = (dir / "report.html").string();
-      if (Status s = write_run_report(report, in, top_view(cloud, *path)); !s.ok()) {
+      if (Status s = write_run_report(report, in, top_view(cloud, *path, reference_path)); !s.ok()) {
         out.errors.push_back(s.error());
       } else {
         out.report = report;

@@ -68,6 +68,7 @@
 #include "pipeline/mapping_stage.h"
 #include "pipeline/run_config.h"
 #include "pipeline/run_report.h"
+#include "io/trajectory_io.h"
 #include "pipeline/run_semantics.h"
 
 namespace ef::pipeline {
@@ -215,7 +216,12 @@ class RunPipeline {
   Every stats_every_, checkpoint_every_;
   // The mapping rate over the run for report.html: (seconds, frames) every rate_interval_ seconds;
   // when full, every other sample goes and the interval doubles (fixed memory, any run length).
-  static constexpr std::size_t kRateSamples = 512;
+  static constexpr std::size_t kRateSamples = kReportRateSamples;
+  // The source's reference poses (recordings that have them), every reference_stride_-th, at most
+  // kReferencePoses (decimated like the rate): the report's ATE and reference path.
+  static constexpr std::size_t kReferencePoses = kReportReferencePoses;
+  std::vector<TimedPose> reference_;
+  int64_t reference_stride_ = 1, reference_seen_ = 0;
   std::vector<RateSample> rate_;
   double rate_interval_ = 1.0;
   void sample_rate(std::chrono::steady_clock::time_point now);

@@ -68,7 +68,8 @@ const char* kStyle =
 
 }  // namespace
 
-TopView top_view(const SurfelCloudView& cloud, const std::vector<SE3>& path, int max_points) {
+TopView top_view(const SurfelCloudView& cloud, const std::vector<SE3>& path,
+                 const std::vector<Eigen::Vector3d>& reference, int max_points) {
   TopView v;
   if (cloud.count == 0) return v;
   PreviewOptions o;
@@ -86,6 +87,7 @@ TopView top_view(const SurfelCloudView& cloud, const std::vector<SE3>& path, int
   const std::size_t step = std::max<std::size_t>(1, (cloud.count + max_points - 1) / static_cast<std::size_t>(max_points));
   for (std::size_t i = 0; i < cloud.count; i += step) project(Eigen::Vector3d(cloud.x[i], cloud.y[i], cloud.z[i]), v.outline);
   for (const SE3& T : path) project(T.translation(), v.path);
+  for (const Eigen::Vector3d& c : reference) project(c, v.reference);
   v.height = static_cast<float>(o.height);
   return v;
 }
@@ -126,6 +128,11 @@ Status write_run_report(const std::string& path, const ReportInputs& in, const T
                     "<rect width=\"1000\" height=\"%.0f\" fill=\"#fafafa\"/>\n",
                  top.height, top.height);
     for (const auto& [x, y] : top.outline) std::fprintf(f, "<circle cx=\"%.0f\" cy=\"%.0f\" r=\"2\" fill=\"#bbb\"/>", x, y);
+    if (top.reference.size() >= 2) {
+      std::fprintf(f, "\n<polyline fill=\"none\" stroke=\"#3a6fb0\" stroke-width=\"2\" stroke-dasharray=\"8 5\" points=\"");
+      for (const auto& [x, y] : top.reference) std::fprintf(f, "%.1f,%.1f ", x, y);
+      std::fprintf(f, "\"/>\n");
+    }
     if (top.path.size() >= 2) {
       std::fprintf(f, "\n<polyline fill=\"none\" stroke=\"#c81ea0\" stroke-width=\"3\" points=\"");
       for (const auto& [x, y] : top.path) std::fprintf(f, "%.1f,%.1f ", x, y);
@@ -136,7 +143,11 @@ Status write_run_report(const std::string& path, const ReportInputs& in, const T
                       "fill=\"#dc1e1e\"/>\n",
                    top.path.front().first, top.path.front().second, top.path.back().first, top.path.back().second);
     }
-    std::fprintf(f, "</svg><div>grey: the map's surfels seen from above; green: start, red: end.</div>\n");
+    std::fprintf(f, "</svg><div>grey: the map's surfels seen from above; magenta: the estimated path (green start, red "
+                    "end)%s.</div>\n",
+                 top.reference.size() >= 2 ? "; dashed blue: the source's reference path, aligned to it (the ATE's "
+                                             "alignment)"
+                                           : "");
   }
 
   // Rate over the run: frames per second between samples.

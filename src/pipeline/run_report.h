@@ -20,6 +20,11 @@
 
 namespace ef::pipeline {
 
+// What a run keeps for its report while it runs (fixed, reserved at start-up: the memory plan's
+// "run report" part): the rate's samples and the source's reference poses (every k-th).
+inline constexpr std::size_t kReportRateSamples = 512;
+inline constexpr std::size_t kReportReferencePoses = 4096;
+
 // frames mapped by `seconds` after the start: the rate over time is the slope between samples.
 struct RateSample {
   double seconds = 0;
@@ -40,12 +45,14 @@ struct ReportInputs {
 };
 
 // The map's outline from above for the path chart: at most `max_points` surfel centres, and the path.
+// `reference`: the source's reference camera centres in the map's frame (aligned), drawn dashed.
 struct TopView {
   std::vector<std::pair<float, float>> outline;  // image coordinates, 0..1000 x 0..(1000 * aspect)
-  std::vector<std::pair<float, float>> path;
+  std::vector<std::pair<float, float>> path, reference;
   float height = 750;
 };
-TopView top_view(const SurfelCloudView& cloud, const std::vector<SE3>& path, int max_points = 3000);
+TopView top_view(const SurfelCloudView& cloud, const std::vector<SE3>& path,
+                 const std::vector<Eigen::Vector3d>& reference = {}, int max_points = 3000);
 
 // Writes the page. Errors name the file (a PNG that cannot be read is left out with a note, not an
 // error: the page still says everything else).

@@ -58,6 +58,10 @@ TEST(CliView, RunWritesAPreviewAndViewDrawsEveryFormOfAMap) {
   EXPECT_NE(page.find("<td>state</td><td>finished</td>"), std::string::npos);
   EXPECT_NE(page.find("data:image/png;base64,iVBORw0KGgo"), std::string::npos) << "the PNG signature, base64";
   EXPECT_NE(page.find("</html>"), std::string::npos);
+  // The synthetic room has reference poses: the ATE against them, and their path drawn dashed.
+  EXPECT_NE(page.find("<td>ATE against the source&#39;s reference poses</td><td>"), std::string::npos);
+  EXPECT_NE(page.find(" over 30 poses"), std::string::npos);
+  EXPECT_NE(page.find("stroke-dasharray"), std::string::npos);
 
   // --no-preview --no-report: neither written, neither named.
   r = cli({"run", "--source", "synthetic:?frames=10&size=160x120", "--resolution", "160x120", "--no-labels",
