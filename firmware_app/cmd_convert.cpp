@@ -54,7 +54,8 @@ int cmd_convert(int argc, char** argv) {
   if (wants_help(argc, argv, 2)) {
     std::printf("%s", format_help("edgefusion convert --source URI --to klg:FILE|tum:DIR|mcap:FILE [--frames N]",
                                   "Writes a source as an ElasticFusion .klg log (int32 frame count; per frame\n"
-                                  "int64 timestamp in microseconds, zlib depth in millimetres, JPEG colour) or as a\n"
+                                  "int64 timestamp in microseconds, zlib depth in millimetres, JPEG colour; beside it\n"
+                                  "FILE.intrinsics.txt with the size and camera, which klg:FILE reads back) or as a\n"
                                   "TUM RGB-D folder (rgb/, depth/ at 5000 per metre, rgb.txt, depth.txt,\n"
                                   "groundtruth.txt when poses exist, labels/ when the source has labels,\n"
                                   "intrinsics.txt), or as an MCAP field log (PNG depth, JPEG colour, calibration,\n"
@@ -102,6 +103,9 @@ int cmd_convert(int argc, char** argv) {
   if (kind == "klg") {
     opened = target.klg.open(target_path, width, height,
                              KlgWriteOptions{!args->has("--raw-depth"), static_cast<int>(*quality)});
+    // The size and the camera beside the recording (a .klg holds neither): `klg:FILE` reads them
+    // back, so converting to .klg and back keeps the source's intrinsics (issue 33).
+    if (opened.ok()) opened = write_klg_side_file(target_path, info.intrinsics.scaled_to(width, height));
   } else if (kind == "tum") {
     opened = target.tum.open(target_path, info.intrinsics.scaled_to(width, height));
   } else {

@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <limits>
+#include <optional>
 
 #include <unistd.h>
 #include <zlib.h>
 
+#include "io/durable_file.h"
 #include "io/image_codec.h"
 #include "io/text_parse.h"
 #include "kernels/depth_convert.h"
@@ -234,7 +238,8 @@ class KlgSource final : public FrameSource {
 
 // Walks the frame headers and builds the source; every structural fault is reported here.
 Result<std::unique_ptr<FrameSource>> open_klg_input(std::unique_ptr<ByteInput> input, const std::string& name,
-                                                    int width, int height, const SourceUri* uri) {
+                                                    int width, int height, const SourceUri* uri,
+                                                    const Intrinsics* side) {
   if (width <= 0 || height <= 0 || width > kMaxSide || height > kMaxSide)
     return error(ErrorCode::kInvalidArgument, "klg file '" + name + "': size " + std::to_string(width) + "x" +
                                                   std::to_string(height) + " out of range");
@@ -320,12 +325,15 @@ Result<std::unique_ptr<FrameSource>> open_klg_input(std::unique_ptr<ByteInput> i
   SourceInfo info;
   info.uri = uri ? "klg:" + uri->path : "klg:" + name;
   info.intrinsics = Intrinsics{525.0f, 525.0f, 319.5f, 239.5f, 640, 480};
-  if (width != 640 || height != 480) info.intrinsics = info.intrinsics.scaled_to(width, height);
+  if (side != nullptr) info.intrinsics = *side;
+  if (width != info.intrinsics.width || height != info.intrinsics.height)
+    info.intrinsics = info.intrinsics.scaled_to(width, height);
   if (uri) EF_RETURN_IF_ERROR(text::apply_intrinsics_overrides(*uri, info.intrinsics));
-  // A .klg holds no calibration (ElasticFusion's format): the default, or what the URI gives.
+  // A .klg holds no calibration (ElasticFusion's format): its side file, the default, or the URI's.
   const std::string klg_default = "the default of a Kinect v1 (fx 525, cx 319.5 at 640x480; a .klg holds none)";
-  if (uri) text::describe_intrinsics(*uri, klg_default, true, &info.intrinsics_from, &info.intrinsics_assumed);
-  else info.intrinsics_from = klg_default, info.intrinsics_assumed = true;
+  const std::string from = side != nullptr ? klg_side_file(name) : klg_default;
+  if (uri) text::describe_intrinsics(*uri, from, side == nullptr, &info.intrinsics_from, &info.intrinsics_assumed);
+  else info.intrinsics_from = from, info.intrinsics_assumed = side == nullptr;
   info.frame_count = found;
   info.warning = warning;
   info.nominal_fps = 30;
@@ -346,6 +354,15 @@ Result<std::unique_ptr<FrameSource>> open_klg(const SourceUri& uri) {
   EF_RETURN_IF_ERROR(check_query_keys(uri, {"size", "fx", "fy", "cx", "cy"}));
   if (uri.path.empty()) return error(ErrorCode::kInvalidArgument, "klg: no file given (expected klg:FILE)");
   int width = 640, height = 480;
+  // The side file `convert` writes: the recording's size and camera.
+  std::optional<Intrinsics> side;
+  std::error_code ec;
+  if (std::filesystem::exists(klg_side_file(uri.path), ec)) {
+    EF_ASSIGN_OR_RETURN(Intrinsics k, read_klg_side_file(klg_side_file(uri.path)));
+    side = k;
+    width = k.width;
+    height = k.height;
+  }
   if (auto it = uri.query.find("size"); it != uri.query.end()) {
     const std::string& v = it->second;
     const std::size_t x = v.find('x');
@@ -369,12 +386,48 @@ Result<std::unique_ptr<FrameSource>> open_klg(const SourceUri& uri) {
     std::fclose(f);
     return error(ErrorCode::kIoError, "klg file '" + uri.path + "': cannot determine its size (not a regular file?)");
   }
-  return open_klg_input(std::make_unique<FileInput>(f, uint64_t(size)), uri.path, width, height, &uri);
+  return open_klg_input(std::make_unique<FileInput>(f, uint64_t(size)), uri.path, width, height, &uri,
+                        side ? &*side : nullptr);
 }
 
 Result<std::unique_ptr<FrameSource>> open_klg_memory(const uint8_t* data, std::size_t size, int width, int height,
                                                      const std::string& name) {
-  return open_klg_input(std::make_unique<MemoryInput>(data, size), name, width, height, nullptr);
+  return open_klg_input(std::make_unique<MemoryInput>(data, size), name, width, height, nullptr, nullptr);
+}
+
+std::string klg_side_file(const std::string& klg_path) { return klg_path + ".intrinsics.txt"; }
+
+Status write_klg_side_file(const std::string& klg_path, const Intrinsics& k) {
+  char text[256];
+  const int n = std::snprintf(text, sizeof text,
+                              "# EdgeFusion: the size and camera of the .klg beside this file (pixels)\n"
+                              "# width height fx fy cx cy\n%d %d %.9g %.9g %.9g %.9g\n",
+                              k.width, k.height, double(k.fx), double(k.fy), double(k.cx), double(k.cy));
+  return write_file_whole(klg_side_file(klg_path), {{text, static_cast<std::size_t>(n)}});
+}
+
+Result<Intrinsics> read_klg_side_file(const std::string& path) {
+  std::string text;
+  EF_RETURN_IF_ERROR(text::read_text_file(path, text));
+  int line_no = 0;
+  std::size_t at = 0;
+  while (at <= text.size()) {
+    const std::size_t end = std::min(text.find('\n', at), text.size());
+    const std::string line = text.substr(at, end - at);
+    at = end + 1;
+    ++line_no;
+    if (line.empty() || line[0] == '#') continue;
+    Intrinsics k;
+    char extra = 0;
+    if (std::sscanf(line.c_str(), "%d %d %f %f %f %f %c", &k.width, &k.height, &k.fx, &k.fy, &k.cx, &k.cy, &extra) != 6 ||
+        k.width < 1 || k.height < 1 || k.width > kMaxSide || k.height > kMaxSide || !(k.fx > 0) || !(k.fy > 0) ||
+        !std::isfinite(k.cx) || !std::isfinite(k.cy))
+      return error(ErrorCode::kCorruptData, path + ", line " + std::to_string(line_no) + ": '" + line +
+                                                "' is not 'width height fx fy cx cy' (sizes 1.." +
+                                                std::to_string(kMaxSide) + ", focal lengths > 0)");
+    return k;
+  }
+  return error(ErrorCode::kCorruptData, path + ": no 'width height fx fy cx cy' line");
 }
 
 // ---------------------------------------------------------------------------------------------

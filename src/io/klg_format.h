@@ -4,7 +4,9 @@
 // int32 depth size, int32 image size, the depth bytes, the colour bytes.
 //   depth:  size == W*H*2 -> raw uint16 millimetres, otherwise a zlib stream of them.
 //   colour: size == W*H*3 -> raw RGB; 0 -> no colour; otherwise a JPEG.
-// The resolution is not stored: the URI says it (`klg:FILE?size=WxH`, default 640x480).
+// The resolution is not stored: the URI says it (`klg:FILE?size=WxH`, default 640x480), or the side
+// file "FILE.intrinsics.txt" that `edgefusion convert --to klg:FILE` writes beside it (issue 33: the
+// size and the camera travel with the recording).
 //
 // Reader decisions:
 //   * Opening walks every frame header, so size fields outside 1..W*H*2 (depth) or 0..W*H*3
@@ -15,9 +17,11 @@
 //     at the end are not errors but SourceInfo::warning, which says how many frames are read and
 //     how many bytes are left out. A file without a single whole frame is an error.
 //   * Depth 0 = invalid; every other value is valid (millimetres -> metres).
-//   * Intrinsics default to fx = fy = 525, cx = 319.5, cy = 239.5 at 640x480 (ElasticFusion's
-//     defaults), scaled to `size` (Intrinsics::scaled_to) for other sizes; fx, fy, cx, cy query
-//     keys override them.
+//   * Size and intrinsics come from the side file when there is one (its size unless the URI gives
+//     size=, its intrinsics scaled to that size); else fx = fy = 525, cx = 319.5, cy = 239.5 at
+//     640x480 (ElasticFusion's defaults), scaled to `size` (Intrinsics::scaled_to), with a warning
+//     that they are assumed. fx, fy, cx, cy query keys override either. A side file that does not
+//     parse is an error naming it and its line.
 //   * Frame.name is "frame-NNNNNN" (index), Frame.timestamp the stored microseconds / 1e6.
 //   * A log in which no frame has colour gives frames with an empty colour image (has_color =
 //     false); in a log that mixes, frames without colour get a black image.
@@ -42,6 +46,14 @@ Result<std::unique_ptr<FrameSource>> open_klg(const SourceUri& uri);
 // stands for the file name in errors.
 Result<std::unique_ptr<FrameSource>> open_klg_memory(const uint8_t* data, std::size_t size, int width, int height,
                                                      const std::string& name);
+
+// The side file of a .klg: "<klg path>.intrinsics.txt", two comment lines and one line
+// "width height fx fy cx cy" (pixels).
+std::string klg_side_file(const std::string& klg_path);
+// Writes it (whole or not at all). Errors name the file.
+Status write_klg_side_file(const std::string& klg_path, const Intrinsics& intrinsics);
+// Reads it: the size and intrinsics it holds. Errors (kCorruptData) name the file and what is wrong.
+Result<Intrinsics> read_klg_side_file(const std::string& path);
 
 struct KlgWriteOptions {
   bool compress_depth = true;  // zlib (fastest level); falls back to raw when it would not shrink

@@ -12,6 +12,7 @@
 #include "eval/trajectory_eval.h"
 #include "io/ply_writer.h"
 #include "io/trajectory_io.h"
+#include "sources/open_source.h"
 #include "test_support.h"
 
 namespace ef::app {
@@ -220,12 +221,42 @@ TEST(Cli, ConvertSyntheticToTumAndKlgAndReadBack) {
 
   r = cli({"convert", "--source", "tum:" + (dir / "tum").string(), "--to", "klg:" + (dir / "seq.klg").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
-  r = cli(run_args({"run", "--source", "klg:" + (dir / "seq.klg").string() + "?size=160x120", "--resolution", "160x120", "--out",
+  // The size and camera travel beside the .klg (issue 33, rough edge 2): klg:FILE, no size=, reads
+  // them back, the same as the TUM folder's.
+  const std::string side = (dir / "seq.klg.intrinsics.txt").string();
+  ASSERT_TRUE(std::filesystem::exists(side));
+  {
+    auto tum = open_source("tum:" + (dir / "tum").string());
+    auto klg = open_source("klg:" + (dir / "seq.klg").string());
+    ASSERT_TRUE(tum.ok() && klg.ok());
+    const Intrinsics a = (*tum)->info().intrinsics, b = (*klg)->info().intrinsics;
+    EXPECT_EQ(b.width, a.width);
+    EXPECT_EQ(b.height, a.height);
+    EXPECT_FLOAT_EQ(b.fx, a.fx);
+    EXPECT_FLOAT_EQ(b.fy, a.fy);
+    EXPECT_FLOAT_EQ(b.cx, a.cx);
+    EXPECT_FLOAT_EQ(b.cy, a.cy);
+    EXPECT_FALSE((*klg)->info().intrinsics_assumed);
+  }
+  r = cli(run_args({"run", "--source", "klg:" + (dir / "seq.klg").string(), "--resolution", "160x120", "--out",
            (dir / "klgrun").string(), "--quiet"}));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(read_file(dir / "klgrun" / "stats.json").find("\"frames\":3"), std::string::npos);
-  // A .klg carries no intrinsics: the run says which it assumed (issue 33, rough edge 2).
+  EXPECT_NE(r.err.find("from " + side), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("warning: the intrinsics are assumed"), std::string::npos) << r.err;
+  // Without its side file a .klg carries no intrinsics: the run says which it assumed.
+  std::filesystem::remove(side);
+  r = cli(run_args({"run", "--source", "klg:" + (dir / "seq.klg").string() + "?size=160x120", "--resolution", "160x120",
+                    "--out", (dir / "klgrun-assumed").string(), "--quiet"}));
+  ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("warning: the intrinsics are assumed"), std::string::npos) << r.err;
+  // A side file that does not parse is named with its line.
+  std::ofstream(side) << "# size and camera\n160 120 fx?\n";
+  r = cli(run_args({"run", "--source", "klg:" + (dir / "seq.klg").string(), "--resolution", "160x120", "--out",
+                    (dir / "klgrun-bad").string(), "--quiet"}));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find(side + ", line 2"), std::string::npos) << r.err;
+  std::filesystem::remove(side);
 
   // The same recording opened with the wrong size maps nothing: an error, and no empty map or
   // header-only trajectory (issue 33, rough edge 3); stats.json says why.
