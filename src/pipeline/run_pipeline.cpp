@@ -8,6 +8,7 @@
 
 #include <sys/resource.h>
 
+#include "core/classes.h"
 #include "eval/trajectory_eval.h"
 #include "io/ply_writer.h"
 #include "io/trajectory_io.h"
@@ -380,7 +381,7 @@ RunOutcome RunPipeline::run(RunObserver& observer) {
     // output's failure.
     Status s = maybe_checkpoint();
     if (s.ok()) s = maybe_write_stats();
-    if (config_.run.preview) sample_rate(std::chrono::steady_clock::now());
+    if (config_.run.report) sample_rate(std::chrono::steady_clock::now());
     if (!s.ok()) {
       outcome.error = s.error();
       break;
@@ -451,14 +452,13 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
     if (semantics_ != nullptr) semantics_->add_label_columns(slam.pool(), cloud);
     auto path = out.wrote_trajectory ? read_preview_path(out.trajectory) : Result<std::vector<SE3>>(std::vector<SE3>{});
     if (!path.ok()) out.errors.push_back(path.error());
-    PreviewStats preview_stats;
     if (config_.run.preview && path.ok()) {
       PreviewOptions po;
       po.width = kPreviewWidth;
       po.height = kPreviewHeight;
       po.title = config_.run.source + ", " + std::to_string(outcome.frames) + " frames";
       const std::string preview = (dir / "preview.png").string();
-      if (Status s = write_map_preview(preview, cloud, *path, po, &preview_stats); !s.ok()) {
+      if (Status s = write_map_preview(preview, cloud, *path, po); !s.ok()) {
         out.errors.push_back(s.error());
       } else {
         out.preview = preview;
@@ -486,7 +486,11 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
       if (semantics_ != nullptr) in.facts.emplace_back("labels", semantics_->describe());
       in.stats = &stats_;
       if (out.wrote_preview) in.preview_png = out.preview;
-      if (semantics_ != nullptr) in.class_counts = preview_stats.class_counts;
+      if (semantics_ != nullptr) {  // the map's classes (the preview counts the same; it may be off)
+        in.class_counts.assign(kNumClassesWithUnknown, 0);
+        for (std::size_t i = 0; i < cloud.count; ++i)
+          if (cloud.class_id[i] < kNumClassesWithUnknown) ++in.class_counts[cloud.class_id[i]];
+      }
       in.rate = rate_;
       in.rate.push_back(RateSample{outcome.seconds, outcome.frames});
       in.config_text = config_.describe();

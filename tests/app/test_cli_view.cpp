@@ -63,6 +63,15 @@ TEST(CliView, RunWritesAPreviewAndViewDrawsEveryFormOfAMap) {
   EXPECT_NE(page.find(" over 30 poses"), std::string::npos);
   EXPECT_NE(page.find("stroke-dasharray"), std::string::npos);
 
+  // --no-preview alone: the report still has the classes, and says it has no picture.
+  r = cli({"run", "--source", "synthetic:?frames=10&size=160x120", "--resolution", "160x120", "--no-preview", "--out",
+           (dir / "nopicture").string(), "--quiet"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string bare = read_file(dir / "nopicture" / "report.html");
+  EXPECT_NE(bare.find("(no preview.png: the run wrote none)"), std::string::npos);
+  EXPECT_NE(bare.find("<span class=\"sw\""), std::string::npos) << "the classes' table";
+  EXPECT_EQ(bare.find("data:image/png"), std::string::npos);
+
   // --no-preview --no-report: neither written, neither named.
   r = cli({"run", "--source", "synthetic:?frames=10&size=160x120", "--resolution", "160x120", "--no-labels",
            "--no-preview", "--no-report", "--out", (dir / "plain").string(), "--quiet"});
