@@ -188,6 +188,9 @@ Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::
     const Eigen::Vector3f p = R * Eigen::Vector3f(cloud.x[i], cloud.y[i], cloud.z[i]) + t;
     if (!(p.z() > 0.05f)) continue;
     const float u = k.fx * p.x() / p.z() + k.cx, v = k.fy * p.y() / p.z() + k.cy;
+    // Far outside the picture (a surfel next to the camera's plane): skipped before any conversion
+    // to int, which would overflow.
+    if (!(std::abs(u) < 1e6f && std::abs(v) < 1e6f)) continue;
     const float radius = cloud.radius.data != nullptr ? cloud.radius[i] : 0.0f;
     const float r = std::min(static_cast<float>(kMaxSplatPx), std::max(0.75f, k.fx * radius / p.z()));
     const int x0 = std::max(0, static_cast<int>(std::floor(u - r))), x1 = std::min(w - 1, static_cast<int>(std::ceil(u + r)));
@@ -248,6 +251,8 @@ Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::
   for (const SE3& T : trajectory) {
     const Eigen::Vector3d p = T_cw * T.translation();
     if (p.z() <= 0.05) continue;
+    const double pu = k.fx * p.x() / p.z() + k.cx, pv = k.fy * p.y() / p.z() + k.cy;
+    if (!(std::abs(pu) < 1e6 && std::abs(pv) < 1e6)) continue;  // far outside: no int overflow
     path.emplace_back(static_cast<int>(std::lround(k.fx * p.x() / p.z() + k.cx)),
                       static_cast<int>(std::lround(k.fy * p.y() / p.z() + k.cy)));
   }

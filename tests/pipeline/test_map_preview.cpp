@@ -170,10 +170,13 @@ TEST(MapPreview, TheNearerSurfelHidesTheFartherOne) {
     for (float py = -0.3f; py <= 0.3f; py += 0.01f) s.add(px, py, 2.0f, kChair);
   for (float px = -1.0f; px <= 1.0f; px += 0.02f)
     for (float py = -1.0f; py <= 1.0f; py += 0.02f) s.add(px, py, 3.0f, kWall);
+  // And one next to the camera's plane, far to the side: it projects millions of pixels out, and is
+  // skipped (no int overflow: UBSan in CI).
+  s.add(1.0e7f, 0.0f, 0.06f, kWall);
   PreviewOptions o;
   o.width = o.height = 200;
   o.pose = SE3();  // at the origin, looking down +z
-  auto img = render_map_preview(s.view(), {}, o);
+  auto img = render_map_preview(s.view(), {SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1e7, 0, 0.06))}, o);
   ASSERT_TRUE(img.ok()) << to_string(img.error());
   const Rgb8 centre = img->view()(o.width + 100, 100), side = img->view()(o.width + 100 + 80, 100);
   const Rgb8 chair = class_color(kChair), wall = class_color(kWall);
