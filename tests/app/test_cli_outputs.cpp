@@ -255,8 +255,9 @@ TEST(CliOutputs, ATrajectoryThatFillsTheDiskStopsTheRunWithWholeLines) {
     std::fclose(f);
   }
   const fs::path out = disk.dir() / "run";
+  // No periodic checkpoint: under qemu the run is slow enough for the 30 s one to fill the disk first.
   auto r = cli({"run", "--source", "synthetic:?frames=3000&size=160x120", "--resolution", "160x120", "--no-labels",
-                "--quiet", "--out", out.string()});
+                "--checkpoint-seconds", "0", "--quiet", "--out", out.string()});
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("trajectory.txt: write failed after"), std::string::npos) << r.err;
   const std::string stats = read_file(out / "stats.json");
