@@ -11,7 +11,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/classes.h"
+#include "io/durable_file.h"
 #include "io/image_codec.h"
+#include "io/png_encoder.h"
 
 namespace ef::pipeline {
 
@@ -27,8 +29,9 @@ const Rgb8 kUnknownClass{64, 64, 64};  // the palette's black, lifted so that sh
 
 Eigen::Vector3d centre_of(const SurfelCloudView& c, std::size_t i) { return {c.x[i], c.y[i], c.z[i]}; }
 
-// The value at fraction q (0..1) of the sorted values.
-double quantile(std::vector<double> v, double q) {
+// The value at fraction q (0..1) of the sorted values; reorders `v` (the values stay the same, so
+// another quantile of it after this one is the same as of the original order).
+double quantile(std::vector<double>& v, double q) {
   const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
   return v[k];
@@ -62,9 +65,68 @@ Rgb8 shade(Rgb8 c, float s) {
 
 cv::Mat as_mat(ImageView<Rgb8> v) { return cv::Mat(v.height, v.width, CV_8UC3, v.data, v.stride_bytes); }
 
+// A stroke from a to b, `half` pixels either side, round ends, its edge smoothed over a pixel.
+// Ours rather than OpenCV's: cv::polylines with thick anti-aliased lines allocates for every
+// segment's caps (some 3000 blocks for a path of a hundred points), and the preview is drawn at
+// every checkpoint on the mapping thread.
+void draw_stroke(ImageView<Rgb8> img, cv::Point2f a, cv::Point2f b, float half, Rgb8 colour) {
+  const int x0 = std::max(0, static_cast<int>(std::floor(std::min(a.x, b.x) - half - 1)));
+  const int x1 = std::min(img.width - 1, static_cast<int>(std::ceil(std::max(a.x, b.x) + half + 1)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(std::min(a.y, b.y) - half - 1)));
+  const int y1 = std::min(img.height - 1, static_cast<int>(std::ceil(std::max(a.y, b.y) + half + 1)));
+  const float dx = b.x - a.x, dy = b.y - a.y, len2 = dx * dx + dy * dy;
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      // Distance from the pixel to the segment.
+      float t = len2 > 0 ? ((static_cast<float>(x) - a.x) * dx + (static_cast<float>(y) - a.y) * dy) / len2 : 0.0f;
+      t = std::min(1.0f, std::max(0.0f, t));
+      const float ex = static_cast<float>(x) - (a.x + t * dx), ey = static_cast<float>(y) - (a.y + t * dy);
+      const float cover = std::min(1.0f, std::max(0.0f, half + 0.5f - std::sqrt(ex * ex + ey * ey)));
+      if (cover <= 0) continue;
+      Rgb8& p = img(x, y);
+      auto mix = [cover](uint8_t under, uint8_t over) {
+        return static_cast<uint8_t>(static_cast<float>(under) + cover * (static_cast<float>(over) - under) + 0.5f);
+      };
+      p = Rgb8{mix(p.r, colour.r), mix(p.g, colour.g), mix(p.b, colour.b)};
+    }
+}
+
+// A filled disc (a stroke of no length).
+void draw_dot(ImageView<Rgb8> img, cv::Point2f c, float radius, Rgb8 colour) { draw_stroke(img, c, c, radius, colour); }
+
+// Classes per legend row, and the legend's height, for panels `w` wide with `classes` present.
+int legend_per_row(int w) { return std::max(1, (2 * w) / 200); }
+int picture_height(int w, int h, int classes) {
+  const int rows = 1 + (classes + legend_per_row(w) - 1) / legend_per_row(w);
+  return h + rows * kLegendRowPx + 6;
+}
+
+}  // namespace
+
+// The sample columns frame_map sorts, reserved once (kSamples each).
+struct MapPreviewer::Framing {
+  std::vector<double> xs, ys, zs, us, vs;
+  Framing() {
+    for (std::vector<double>* v : {&xs, &ys, &zs, &us, &vs}) v->reserve(kSamples);
+  }
+};
+
+namespace {
+
+PreviewCamera frame_map_with(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory, const PreviewOptions& o,
+                             MapPreviewer::Framing& fr);
+
 }  // namespace
 
 PreviewCamera frame_map(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory, const PreviewOptions& o) {
+  MapPreviewer::Framing fr;
+  return frame_map_with(cloud, trajectory, o, fr);
+}
+
+namespace {
+
+PreviewCamera frame_map_with(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory, const PreviewOptions& o,
+                             MapPreviewer::Framing& fr) {
   PreviewCamera cam;
   const int w = o.width, h = o.height;
   // A 60-degree horizontal field of view unless given.
@@ -105,8 +167,8 @@ PreviewCamera frame_map(const SurfelCloudView& cloud, const std::vector<SE3>& tr
   // The extent: percentiles of a sample of the centres.
   const std::size_t n = cloud.count;
   const std::size_t step = std::max<std::size_t>(1, (n + kSamples - 1) / kSamples);  // at most kSamples
-  std::vector<double> xs, ys, zs;
-  xs.reserve(kSamples), ys.reserve(kSamples), zs.reserve(kSamples);
+  std::vector<double>&xs = fr.xs, &ys = fr.ys, &zs = fr.zs;
+  xs.clear(), ys.clear(), zs.clear();
   for (std::size_t i = 0; i < n; i += step) {
     xs.push_back(cloud.x[i]);
     ys.push_back(cloud.y[i]);
@@ -114,8 +176,6 @@ PreviewCamera frame_map(const SurfelCloudView& cloud, const std::vector<SE3>& tr
   }
   // The camera's path is in the picture too (a few of its poses count like surfels).
   const std::size_t path_step = std::max<std::size_t>(1, trajectory.size() / 200);
-  std::vector<Eigen::Vector3d> path_points;
-  for (std::size_t i = 0; i < trajectory.size(); i += path_step) path_points.push_back(trajectory[i].translation());
   const Eigen::Vector3d lo(quantile(xs, 0.02), quantile(ys, 0.02), quantile(zs, 0.02));
   const Eigen::Vector3d hi(quantile(xs, 0.98), quantile(ys, 0.98), quantile(zs, 0.98));
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
@@ -134,8 +194,8 @@ PreviewCamera frame_map(const SurfelCloudView& cloud, const std::vector<SE3>& tr
   // Fill the image: scale the focal length and move the principal point so that the projected
   // 2..98% extent of the sampled centres spans 92% of it (same perspective, tighter frame).
   const SE3 T_cam_world = cam.T_world_cam.inverse();
-  std::vector<double> us, vs;
-  us.reserve(kSamples), vs.reserve(kSamples);
+  std::vector<double>&us = fr.us, &vs = fr.vs;
+  us.clear(), vs.clear();
   for (std::size_t i = 0; i < n; i += step) {
     const Eigen::Vector3d p = T_cam_world * centre_of(cloud, i);
     if (p.z() <= 1e-3) continue;
@@ -143,8 +203,8 @@ PreviewCamera frame_map(const SurfelCloudView& cloud, const std::vector<SE3>& tr
     vs.push_back(p.y() / p.z());
   }
   double pu0 = 1e9, pu1 = -1e9, pv0 = 1e9, pv1 = -1e9;  // the path's whole extent (no percentile)
-  for (const Eigen::Vector3d& c : path_points) {
-    const Eigen::Vector3d p = T_cam_world * c;
+  for (std::size_t i = 0; i < trajectory.size(); i += path_step) {
+    const Eigen::Vector3d p = T_cam_world * trajectory[i].translation();
     if (p.z() <= 1e-3) continue;
     pu0 = std::min(pu0, p.x() / p.z());
     pu1 = std::max(pu1, p.x() / p.z());
@@ -162,26 +222,53 @@ PreviewCamera frame_map(const SurfelCloudView& cloud, const std::vector<SE3>& tr
   return cam;
 }
 
-Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
-                                       const PreviewOptions& o, PreviewStats* stats) {
-  if (o.width < 64 || o.height < 64 || o.width > 4096 || o.height > 4096)
-    return error(ErrorCode::kInvalidArgument, "preview size " + std::to_string(o.width) + "x" + std::to_string(o.height) +
+}  // namespace
+
+MapPreviewer::MapPreviewer(int width, int height)
+    : width_(width),
+      height_(height),
+      depth_(static_cast<std::size_t>(width) * height),
+      light_(static_cast<std::size_t>(width) * height),
+      owner_(static_cast<std::size_t>(width) * height),
+      picture_(2 * width, picture_height(width, height, kNumClassesWithUnknown)),
+      framing_(std::make_unique<Framing>()),
+      png_(std::make_unique<PngEncoder>(2 * width, picture_height(width, height, kNumClassesWithUnknown), 3,
+                                        /*level=*/1)) {
+  path_px_.reserve(kPreviewPathPoses);
+  png_bytes_.reserve(PngEncoder::bytes_for(picture_.width(), picture_.height(), 3));
+}
+
+MapPreviewer::~MapPreviewer() = default;
+
+Result<std::unique_ptr<MapPreviewer>> MapPreviewer::create(int width, int height) {
+  if (width < 64 || height < 64 || width > 4096 || height > 4096)
+    return error(ErrorCode::kInvalidArgument, "preview size " + std::to_string(width) + "x" + std::to_string(height) +
                                                   " is outside 64x64..4096x4096");
+  return std::unique_ptr<MapPreviewer>(new MapPreviewer(width, height));
+}
+
+Result<ImageView<const Rgb8>> MapPreviewer::render(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
+                                                   const PreviewOptions& options, PreviewStats* stats) {
   if (cloud.count == 0) return error(ErrorCode::kInvalidArgument, "the map has no surfels to draw");
-  const PreviewCamera cam = frame_map(cloud, trajectory, o);
+  PreviewOptions o = options;
+  o.width = width_;
+  o.height = height_;
+  const PreviewCamera cam = frame_map_with(cloud, trajectory, o, *framing_);
   const Intrinsics& k = cam.intrinsics;
   const SE3 T_cw = cam.T_world_cam.inverse();
   const Eigen::Matrix3f R = T_cw.rotation().toRotationMatrix().cast<float>();
   const Eigen::Vector3f t = T_cw.translation().cast<float>();
-  const int w = o.width, h = o.height;
+  const int w = width_, h = height_;
 
   // One depth buffer, the winning surfel per pixel, and its shading.
-  std::vector<float> depth(static_cast<std::size_t>(w) * h, std::numeric_limits<float>::infinity());
-  std::vector<int32_t> owner(static_cast<std::size_t>(w) * h, -1);
-  std::vector<float> light(static_cast<std::size_t>(w) * h, 1.0f);
+  std::fill(depth_.begin(), depth_.end(), std::numeric_limits<float>::infinity());
+  std::fill(owner_.begin(), owner_.end(), -1);
+  std::fill(light_.begin(), light_.end(), 1.0f);
+  std::vector<float>& depth = depth_;
+  std::vector<int32_t>& owner = owner_;
+  std::vector<float>& light = light_;
   PreviewStats st;
   st.surfels = static_cast<int64_t>(cloud.count);
-  st.class_counts.assign(kNumClassesWithUnknown, 0);
   const bool has_classes = cloud.class_id.data != nullptr;
   for (std::size_t i = 0; i < cloud.count; ++i) {
     if (has_classes && cloud.class_id[i] < kNumClassesWithUnknown) ++st.class_counts[cloud.class_id[i]];
@@ -221,17 +308,18 @@ Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::
   }
 
   // The legend's rows: the classes present, most surfels first, four to a row.
-  std::vector<int> present;
+  std::array<int, kNumClassesWithUnknown> present{};
+  int n_present = 0;
   if (has_classes)
     for (int c = 0; c < kNumClassesWithUnknown; ++c)
-      if (st.class_counts[c] > 0) present.push_back(c);
-  std::sort(present.begin(), present.end(), [&](int a, int b) { return st.class_counts[a] > st.class_counts[b]; });
-  const int per_row = std::max(1, (2 * w) / 200);
-  const int legend_rows = 1 + (static_cast<int>(present.size()) + per_row - 1) / per_row;
-  Image<Rgb8> image(2 * w, h + legend_rows * kLegendRowPx + 6);
-  for (int y = 0; y < image.height(); ++y)
-    for (int x = 0; x < image.width(); ++x) image.view()(x, y) = kBackground;
-  ImageView<Rgb8> colour = image.view().sub(0, 0, w, h), labels = image.view().sub(w, 0, w, h);
+      if (st.class_counts[c] > 0) present[n_present++] = c;
+  std::stable_sort(present.begin(), present.begin() + n_present,
+                   [&](int a, int b) { return st.class_counts[a] > st.class_counts[b]; });
+  const int per_row = legend_per_row(w);
+  ImageView<Rgb8> picture = picture_.view().sub(0, 0, 2 * w, picture_height(w, h, n_present));
+  for (int y = 0; y < picture.height; ++y)
+    for (int x = 0; x < picture.width; ++x) picture(x, y) = kBackground;
+  ImageView<Rgb8> colour = picture.sub(0, 0, w, h), labels = picture.sub(w, 0, w, h);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const std::size_t at = static_cast<std::size_t>(y) * w + x;
@@ -246,28 +334,28 @@ Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::
     }
 
   // The camera's path over both panels.
-  cv::Mat all = as_mat(image.view());
-  std::vector<cv::Point> path;
+  cv::Mat all = as_mat(picture);
+  std::vector<cv::Point2f>& path = path_px_;
+  path.clear();
   for (const SE3& T : trajectory) {
     const Eigen::Vector3d p = T_cw * T.translation();
     if (p.z() <= 0.05) continue;
     const double pu = k.fx * p.x() / p.z() + k.cx, pv = k.fy * p.y() / p.z() + k.cy;
     if (!(std::abs(pu) < 1e6 && std::abs(pv) < 1e6)) continue;  // far outside: no int overflow
-    path.emplace_back(static_cast<int>(std::lround(k.fx * p.x() / p.z() + k.cx)),
-                      static_cast<int>(std::lround(k.fy * p.y() / p.z() + k.cy)));
+    path.emplace_back(static_cast<float>(pu), static_cast<float>(pv));
   }
+  const Rgb8 kStart{20, 170, 40}, kEnd{220, 30, 30}, kHalo{255, 255, 255}, kPath{200, 30, 160};
   for (int panel = 0; panel < 2; ++panel) {
-    cv::Mat m = as_mat(panel == 0 ? colour : labels);
-    if (path.size() >= 2) {
-      cv::polylines(m, std::vector<std::vector<cv::Point>>{path}, false, cv::Scalar(255, 255, 255), 4, cv::LINE_AA);
-      cv::polylines(m, std::vector<std::vector<cv::Point>>{path}, false, cv::Scalar(200, 30, 160), 2, cv::LINE_AA);
-    }
+    ImageView<Rgb8> m = panel == 0 ? colour : labels;
+    for (std::size_t i = 1; i < path.size(); ++i) draw_stroke(m, path[i - 1], path[i], 2.0f, kHalo);
+    for (std::size_t i = 1; i < path.size(); ++i) draw_stroke(m, path[i - 1], path[i], 1.0f, kPath);
     if (!path.empty()) {
-      cv::circle(m, path.front(), 6, cv::Scalar(20, 170, 40), cv::FILLED, cv::LINE_AA);
-      cv::circle(m, path.back(), 6, cv::Scalar(220, 30, 30), cv::FILLED, cv::LINE_AA);
+      draw_dot(m, path.front(), 6.0f, kStart);
+      draw_dot(m, path.back(), 6.0f, kEnd);
     }
-    const std::string heading = panel == 0 ? "colour" : (has_classes ? "labels (NYUv2 13 classes)" : "labels: none in this map");
-    cv::putText(m, heading, cv::Point(10, h - 12), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(40, 40, 40), 1, cv::LINE_AA);
+    cv::Mat mat = as_mat(m);
+    const char* heading = panel == 0 ? "colour" : (has_classes ? "labels (NYUv2 13 classes)" : "labels: none in this map");
+    cv::putText(mat, heading, cv::Point(10, h - 12), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(40, 40, 40), 1, cv::LINE_AA);
   }
   if (!o.title.empty())
     cv::putText(all, o.title, cv::Point(10, 22), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(40, 40, 40), 1, cv::LINE_AA);
@@ -276,26 +364,48 @@ Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::
   // Legend: path markers, then each class present with its share of the surfels.
   int y = h + 6;
   char text[96];
-  cv::circle(all, cv::Point(16, y + 12), 6, cv::Scalar(20, 170, 40), cv::FILLED, cv::LINE_AA);
+  draw_dot(picture, cv::Point2f(16, static_cast<float>(y + 12)), 6.0f, kStart);
   cv::putText(all, "start", cv::Point(28, y + 17), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(40, 40, 40), 1, cv::LINE_AA);
-  cv::circle(all, cv::Point(96, y + 12), 6, cv::Scalar(220, 30, 30), cv::FILLED, cv::LINE_AA);
+  draw_dot(picture, cv::Point2f(96, static_cast<float>(y + 12)), 6.0f, kEnd);
   std::snprintf(text, sizeof text, "end of the camera path; %lld surfels, %.0f%% of the panel covered",
                 static_cast<long long>(st.surfels), 100.0 * static_cast<double>(st.covered_pixels) / (double(w) * h));
   cv::putText(all, text, cv::Point(108, y + 17), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(40, 40, 40), 1, cv::LINE_AA);
-  for (std::size_t j = 0; j < present.size(); ++j) {
+  for (int j = 0; j < n_present; ++j) {
     const int c = present[j];
     const int row = 1 + static_cast<int>(j) / per_row, col = static_cast<int>(j) % per_row;
     const int x = 10 + col * 200, yy = y + row * kLegendRowPx;
     const Rgb8 sw = c == 0 ? kUnknownClass : class_color(c);
     cv::rectangle(all, cv::Rect(x, yy + 4, 16, 16), cv::Scalar(sw.r, sw.g, sw.b), cv::FILLED);
-    std::snprintf(text, sizeof text, "%s %.1f%%", std::string(class_name(c)).c_str(),
+    const std::string_view name = class_name(c);
+    std::snprintf(text, sizeof text, "%.*s %.1f%%", static_cast<int>(name.size()), name.data(),
                   100.0 * static_cast<double>(st.class_counts[c]) / static_cast<double>(st.surfels));
     cv::putText(all, text, cv::Point(x + 22, yy + 17), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(40, 40, 40), 1,
                 cv::LINE_AA);
   }
-  if (stats != nullptr) *stats = std::move(st);
+  if (stats != nullptr) *stats = st;
+  return ImageView<const Rgb8>(picture);
+}
+
+Status MapPreviewer::write(const std::string& path, const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
+                           const PreviewOptions& options, PreviewStats* stats) {
+  auto image = render(cloud, trajectory, options, stats);
+  if (!image.ok()) return error(image.error().code, path + ": " + image.error().message);
+  if (Status s = png_->encode(*image, png_bytes_); !s.ok()) return error(s.error().code, path + ": " + s.error().message);
+  return write_file_whole(path, {{png_bytes_.data(), png_bytes_.size()}});
+}
+
+Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
+                                       const PreviewOptions& o, PreviewStats* stats) {
+  auto previewer = MapPreviewer::create(o.width, o.height);
+  if (!previewer.ok()) return previewer.error();
+  auto view = (*previewer)->render(cloud, trajectory, o, stats);
+  if (!view.ok()) return view.error();
+  Image<Rgb8> image(view->width, view->height);
+  for (int y = 0; y < view->height; ++y)
+    for (int x = 0; x < view->width; ++x) image.view()(x, y) = (*view)(x, y);
   return image;
 }
+
 
 Result<std::vector<SE3>> read_preview_path(const std::string& tum_file, std::size_t max_poses) {
   std::ifstream in(tum_file);
@@ -322,18 +432,34 @@ Result<std::vector<SE3>> read_preview_path(const std::string& tum_file, std::siz
 
 std::size_t map_preview_bytes_for(int width, int height) {
   const std::size_t pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-  const std::size_t legend = static_cast<std::size_t>(8 * kLegendRowPx + 6);
-  return pixels * (sizeof(float) * 2 + sizeof(int32_t))                                       // depth, light, owner
-         + 2 * static_cast<std::size_t>(width) * (static_cast<std::size_t>(height) + legend) * sizeof(Rgb8)  // picture
-         + 6 * kSamples * sizeof(double)  // framing samples (five columns and a percentile's copy)
-         + kPreviewPathPoses * (sizeof(SE3) + sizeof(cv::Point));                              // the path
+  const int picture_w = 2 * width, picture_h = picture_height(width, height, kNumClassesWithUnknown);
+  const std::size_t picture = static_cast<std::size_t>(picture_w) * static_cast<std::size_t>(picture_h) * sizeof(Rgb8);
+  constexpr std::size_t kZlibState = 256 * 1024;  // deflate's window and hash tables at the default settings
+  return pixels * (sizeof(float) * 2 + sizeof(int32_t))                          // depth, light, owner
+         + picture                                                                // the picture
+         + 5 * kSamples * sizeof(double)                                          // framing samples
+         + kPreviewPathPoses * sizeof(cv::Point2f) + PreviewPath::bytes_for(kPreviewPathPoses)  // the path
+         + PngEncoder::bytes_for(picture_w, picture_h, 3) + 2 * static_cast<std::size_t>(picture_w) * 3 + kZlibState;
 }
 
 Status write_map_preview(const std::string& path, const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
                          const PreviewOptions& options, PreviewStats* stats) {
-  auto image = render_map_preview(cloud, trajectory, options, stats);
-  if (!image.ok()) return error(image.error().code, path + ": " + image.error().message);
-  return write_png(path, image->view());
+  auto previewer = MapPreviewer::create(options.width, options.height);
+  if (!previewer.ok()) return error(previewer.error().code, path + ": " + previewer.error().message);
+  return (*previewer)->write(path, cloud, trajectory, options, stats);
+}
+
+PreviewPath::PreviewPath(std::size_t capacity) : capacity_(std::max<std::size_t>(2, capacity)) { poses_.reserve(capacity_); }
+
+void PreviewPath::add(const SE3& T_world_cam) {
+  if (seen_++ % stride_ != 0) return;
+  if (poses_.size() == capacity_) {  // full: keep every other, take every 2k-th from now on
+    std::size_t k = 0;
+    for (std::size_t j = 0; j < poses_.size(); j += 2) poses_[k++] = poses_[j];
+    poses_.resize(k);
+    stride_ *= 2;
+  }
+  poses_.push_back(T_world_cam);
 }
 
 }  // namespace ef::pipeline

@@ -11,19 +11,33 @@
 // not shrink the picture. Or an explicit camera pose and intrinsics.
 //
 // The renderer is a z-buffered splatter of each surfel as a disc of its radius (at least a pixel),
-// written for pictures, not for tracking (slam/model_prediction is the tracker's). It allocates its
-// images per call: it runs after a run's outputs, or in `view`, never on the per-frame path.
+// written for pictures, not for tracking (slam/model_prediction is the tracker's). A MapPreviewer
+// holds every large buffer from its construction (map_preview_bytes_for: the memory plan's "map
+// preview" part), so `run` draws the preview at each checkpoint and at the end with the one it made
+// at start-up; a drawing then allocates only the few small blocks of OpenCV's text drawing.
+// The free functions below make a previewer per call (`view`, tests).
+//
+// Threads: a MapPreviewer is used by one thread at a time (run: the mapping thread).
 #pragma once
 
+#include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include <opencv2/core/types.hpp>
+
+#include "core/classes.h"
 #include "core/image.h"
 #include "core/intrinsics.h"
 #include "core/result.h"
 #include "core/se3.h"
 #include "io/ply_writer.h"
+
+namespace ef {
+class PngEncoder;  // io/png_encoder.h
+}
 
 namespace ef::pipeline {
 
@@ -50,7 +64,7 @@ struct PreviewStats {
   int64_t surfels = 0;       // in the map
   int64_t drawn = 0;         // in front of the camera and inside the image
   int64_t covered_pixels = 0;  // pixels of a panel with a surfel
-  std::vector<int64_t> class_counts;  // surfels per class id 0..13
+  std::array<int64_t, kNumClassesWithUnknown> class_counts{};  // surfels per class id 0..13
 };
 
 // The camera centres of a TUM trajectory file for the path drawn, at most `max_poses` of them (a
@@ -58,9 +72,59 @@ struct PreviewStats {
 // length); "# lost" lines and comments skipped. Errors: the file cannot be opened.
 Result<std::vector<SE3>> read_preview_path(const std::string& tum_file, std::size_t max_poses = kPreviewPathPoses);
 
-// Bytes a preview of panels width x height takes while it is drawn (buffers, picture, framing
-// samples and the path): the memory plan's "map preview" part.
+// Bytes a previewer of panels width x height holds (depth buffers, the picture, framing samples,
+// the path, the PNG encoder and its output): the memory plan's "map preview" part.
 std::size_t map_preview_bytes_for(int width, int height);
+
+// A preview drawer with its buffers (see the top of this file).
+class MapPreviewer {
+ public:
+  // Panels of width x height pixels (64..4096 each; checked by create()).
+  static Result<std::unique_ptr<MapPreviewer>> create(int width, int height);
+  ~MapPreviewer();
+  MapPreviewer(const MapPreviewer&) = delete;
+  MapPreviewer& operator=(const MapPreviewer&) = delete;
+
+  // Draws the picture: (2 x width) x (height + legend) RGB, valid until the next call. `options`'
+  // width and height are ignored (the previewer's own). Errors: an empty map.
+  Result<ImageView<const Rgb8>> render(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
+                                       const PreviewOptions& options, PreviewStats* stats = nullptr);
+  // render() written as a PNG, whole or not at all (io/durable_file.h); errors name the file.
+  Status write(const std::string& path, const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,
+               const PreviewOptions& options, PreviewStats* stats = nullptr);
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  struct Framing;  // the framing's sample columns (map_preview.cpp)
+
+ private:
+  MapPreviewer(int width, int height);
+  int width_, height_;
+  std::vector<float> depth_, light_;  // per panel pixel: nearest depth (m), its shading
+  std::vector<int32_t> owner_;        // per panel pixel: the surfel drawn there, -1 none
+  Image<Rgb8> picture_;               // the tallest picture (every class in the legend)
+  std::unique_ptr<Framing> framing_;
+  std::vector<cv::Point2f> path_px_;  // the path projected (pixels), at most kPreviewPathPoses
+  std::unique_ptr<PngEncoder> png_;
+  std::string png_bytes_;
+};
+
+// A camera path kept in memory as a run goes (for the checkpoints' previews): at most `capacity`
+// centres, the whole run evenly sampled (full: every other one is dropped and only every 2k-th
+// pose is taken from then on), as read_preview_path reads a file. Reserved at construction; add()
+// never allocates.
+class PreviewPath {
+ public:
+  explicit PreviewPath(std::size_t capacity = kPreviewPathPoses);
+  void add(const SE3& T_world_cam);
+  const std::vector<SE3>& poses() const { return poses_; }
+  static std::size_t bytes_for(std::size_t capacity) { return capacity * sizeof(SE3); }
+
+ private:
+  std::vector<SE3> poses_;
+  std::size_t capacity_, stride_ = 1, seen_ = 0;
+};
 
 // The picture: (2 x width) x (height + legend) RGB. Errors: an empty map, sizes out of 64..4096.
 Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::vector<SE3>& trajectory,

@@ -204,8 +204,8 @@ Result<MemoryPlan> plan_memory(const RunConfig& config, const SourceProbe& probe
             " reference poses, kept while mapping for report.html (pipeline/run_report.h)");
   if (config.run.preview || config.run.report)
     add("map preview", map_preview_bytes_for(kPreviewWidth, kPreviewHeight),
-        "after the run: preview.png, two " + size_text(kPreviewWidth, kPreviewHeight) +
-            " panels, their depth buffer and the camera's path (pipeline/map_preview.h)");
+        "from the start: preview.png at each checkpoint and at the end, two " + size_text(kPreviewWidth, kPreviewHeight) +
+            " panels, their depth buffer, the camera's path, the PNG encoder (pipeline/map_preview.h)");
 
   // Prepared frames (pipeline/front_stage.h): per slot the working frame and its preprocessor.
   const int slots = config.pipeline.slots();

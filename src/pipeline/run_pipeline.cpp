@@ -157,9 +157,21 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                      stats.add_counter("realtime_frames_late")};
   p->st_checkpoint_ = stats.add_stage(kStageNames[0]);
   p->st_log_map_ = stats.add_stage(kStageNames[1]);
+  p->st_checkpoint_preview_ = stats.add_stage(kStageNames[2]);
+  if (config.run.preview || config.run.report) {
+    auto previewer = MapPreviewer::create(kPreviewWidth, kPreviewHeight);
+    if (!previewer.ok()) return previewer.take_error();
+    p->previewer_ = std::move(*previewer);
+  }
 
   if (checkpoint) {
     EF_RETURN_IF_ERROR(restore_checkpoint(*checkpoint, p->mapping_->slam(), stats));
+    // The path so far, for the checkpoints' previews: the trajectory as cut back to the checkpoint.
+    if (p->previewer_ != nullptr) {
+      auto path = read_preview_path(trajectory_path);
+      if (path.ok())
+        for (const SE3& T : *path) p->preview_path_.add(T);
+    }
     p->mapping_->resume_at(checkpoint->meta.frames);
     EF_RETURN_IF_ERROR(p->front_->resume_at(checkpoint->meta.frames));
     p->resume_warning_ = checkpoint->warning;
@@ -219,7 +231,7 @@ std::string RunPipeline::log_path_for(const std::string& file, const std::string
   return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
 }
 
-Status RunPipeline::checkpoint(double seconds) {
+Status RunPipeline::checkpoint(double seconds, bool with_preview) {
   if (mapping_->frames() == 0) return Status::success();
   // The field log's open chunk out with it: the log is readable up to the checkpoint's frames. A
   // log that fails does not stop the checkpoint (its error is reported with the outputs).
@@ -241,6 +253,7 @@ Status RunPipeline::checkpoint(double seconds) {
   EF_RETURN_IF_ERROR(write_checkpoint(out_folder_, meta, mapping_->slam(), stats_, checkpoint_names_));
   stats_.record_ms(st_checkpoint_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   stats_extra_[kExtraCheckpoints].value += 1;
+  if (with_preview) EF_RETURN_IF_ERROR(write_checkpoint_preview());
   if (log_ != nullptr && config_.log.map) {
     // The map into the field log too (Foxglove's 3D panel); a failure is the log's, reported at the end.
     const auto t1 = std::chrono::steady_clock::now();
@@ -250,6 +263,24 @@ Status RunPipeline::checkpoint(double seconds) {
     stats_.record_ms(st_log_map_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count());
   }
   return Status::success();
+}
+
+Status RunPipeline::write_checkpoint_preview() {
+  if (!config_.run.preview || previewer_ == nullptr || mapping_->slam().pool().size() == 0) return Status::success();
+  const auto t0 = std::chrono::steady_clock::now();
+  SurfelCloudView cloud = slam::surfel_cloud_view(mapping_->slam().pool());
+  if (semantics_ != nullptr) semantics_->add_label_columns(mapping_->slam().pool(), cloud);
+  PreviewOptions po;
+  po.title = preview_title(mapping_->frames());
+  const std::string file = (std::filesystem::path(out_folder_) / "preview.png").string();
+  EF_RETURN_IF_ERROR(previewer_->write(file, cloud, preview_path_.poses(), po));
+  stats_.record_ms(st_checkpoint_preview_,
+                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  return Status::success();
+}
+
+std::string RunPipeline::preview_title(int64_t frames) const {
+  return config_.run.source + ", " + std::to_string(frames) + " frames";
 }
 
 bool RunPipeline::Every::due(std::chrono::steady_clock::time_point now) {
@@ -310,6 +341,7 @@ bool RunPipeline::consume(PreparedFrame& slot, RunObserver& observer, RunOutcome
     outcome.error = s.error();
     return false;
   }
+  if (previewer_ != nullptr) preview_path_.add(mapping_->last_result().T_world_cam);
   if (slot.working.has_pose && config_.run.report && reference_seen_++ % reference_stride_ == 0) {
     if (reference_.size() == kReferencePoses) {  // full: keep every other, take every 2k-th from now on
       std::size_t k = 0;
@@ -424,7 +456,8 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
   }
   // The final checkpoint: a finished run can be continued or exported like an interrupted one.
   if (config_.output.checkpoint_seconds > 0 && !outcome.error) {
-    if (Status s = checkpoint(outcome.seconds); !s.ok()) out.errors.push_back(s.error());
+    // (its preview is the final one below, drawn along the trajectory as closed)
+    if (Status s = checkpoint(outcome.seconds, /*with_preview=*/false); !s.ok()) out.errors.push_back(s.error());
   }
   // Nothing mapped (this session or a resumed one): no map and no trajectory to give, and a run that
   // did nothing did not work (a recording opened with the wrong size=, an empty source).
@@ -454,11 +487,9 @@ OutputFiles RunPipeline::write_outputs(const RunOutcome& outcome) {
     if (!path.ok()) out.errors.push_back(path.error());
     if (config_.run.preview && path.ok()) {
       PreviewOptions po;
-      po.width = kPreviewWidth;
-      po.height = kPreviewHeight;
-      po.title = config_.run.source + ", " + std::to_string(outcome.frames) + " frames";
+      po.title = preview_title(outcome.frames);
       const std::string preview = (dir / "preview.png").string();
-      if (Status s = write_map_preview(preview, cloud, *path, po); !s.ok()) {
+      if (Status s = previewer_->write(preview, cloud, *path, po); !s.ok()) {
         out.errors.push_back(s.error());
       } else {
         out.preview = preview;

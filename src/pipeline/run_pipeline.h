@@ -25,6 +25,10 @@
 // frame, the mapping thread each pose, the CNN's class ids and status lines, and each checkpoint the
 // map and the open chunk; it is closed with the outputs (a log that failed is reported there).
 //
+// preview.png (pipeline/map_preview.h) is rewritten with each checkpoint (stage
+// "checkpoint_preview") and at the end, drawn by one MapPreviewer made in create(): a killed run's
+// folder has the picture of its last checkpoint's map.
+//
 // Front and mapping share a StageRing (core/stage_ring.h) of pipeline.prepared_slots PreparedFrame
 // slots, which every frame passes through in order; a step waits for its predecessor, nothing is
 // dropped after capture. pipeline.threads says how the steps map onto threads:
@@ -59,6 +63,7 @@
 #include "core/result.h"
 #include "core/stage_stats.h"
 #include "pipeline/checkpoint.h"
+#include "pipeline/map_preview.h"
 #include "pipeline/cnn_worker.h"
 #include "pipeline/final_labels.h"
 #include "pipeline/front_stage.h"
@@ -111,7 +116,7 @@ struct OutputFiles {
 class RunPipeline {
  public:
   // The stage it records itself (the others: MappingStage's and RunSemantics').
-  static constexpr const char* kStageNames[] = {"checkpoint", "log_map"};
+  static constexpr const char* kStageNames[] = {"checkpoint", "log_map", "checkpoint_preview"};
 
   // source: borrowed, must outlive the pipeline. Checks the configuration (RunConfig::validate,
   // check_run), then creates the output folder and the trajectory file, the SLAM, the semantics
@@ -182,8 +187,9 @@ class RunPipeline {
   // A periodic rewrite when output.stats_seconds have passed.
   Status maybe_write_stats();
   // A checkpoint of the map now (pipeline/checkpoint.h); `seconds`: of this session so far. On the
-  // mapping thread, between frames: the mapper pauses for it (stage "checkpoint" in stats.json).
-  Status checkpoint(double seconds);
+  // mapping thread, between frames: the mapper pauses for it (stage "checkpoint" in stats.json),
+  // and for preview.png drawn again with it (`with_preview`, stage "checkpoint_preview").
+  Status checkpoint(double seconds, bool with_preview = true);
   Status maybe_checkpoint();
 
   const RunConfig config_;
@@ -228,7 +234,15 @@ class RunPipeline {
   std::optional<CheckpointMeta> resumed_;  // the checkpoint this run continues
   std::string resume_warning_;             // a corrupt newest checkpoint, when the one before was used
   std::string checkpoint_names_;           // scratch for write_checkpoint()
+  // preview.png's drawer (with preview or report on: its buffers are the plan's "map preview") and
+  // the camera's path as mapped, for the preview written with each checkpoint (the final one is
+  // drawn along trajectory.txt, whose poses a loop closure corrected).
+  std::unique_ptr<MapPreviewer> previewer_;
+  PreviewPath preview_path_;
+  Status write_checkpoint_preview();
+  std::string preview_title(int64_t frames) const;  // "<source>, N frames"
   int st_checkpoint_ = -1;
+  int st_checkpoint_preview_ = -1;
   int st_log_map_ = -1;  // the map written into the field log at a checkpoint
   struct CounterIds {
     int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,

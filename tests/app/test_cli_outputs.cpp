@@ -16,6 +16,7 @@
 
 #include "app/cli_test_util.h"
 #include "core/frame.h"
+#include "io/image_codec.h"
 #include "io/mcap_reader.h"
 #include "io/ply_writer.h"
 #include "io/trajectory_io.h"
@@ -208,6 +209,30 @@ TEST(CliOutputs, SigkillLeavesAReadableTrajectoryAndRunningStats) {
   EXPECT_GE(static_cast<double>(traj->poses.size()), frames);
   EXPECT_FALSE(fs::exists(out / "map.ply"));  // written at the end only: absent, never half
   EXPECT_FALSE(fs::exists(out / "map.ply.partial"));
+}
+
+// preview.png is drawn again with each checkpoint (issue 33): a run killed after its first
+// checkpoint leaves the picture of that map, whole, beside the checkpoint.
+TEST(CliOutputs, SigkillLeavesThePreviewOfTheLastCheckpoint) {
+  const auto dir = test::scratch_dir("cli-outputs-kill-preview");
+  const fs::path out = dir / "run";
+  const int status = run_and_kill({"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution",
+                                   "160x120", "--no-labels", "--quiet", "--checkpoint-seconds", "0.3", "--out",
+                                   out.string()},
+                                  [&] { return fs::exists(out / "preview.png"); }, 0, 120000);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before the kill (status " << status << ")";
+  ASSERT_TRUE(fs::exists(out / "checkpoint.efs"));
+  Image<Rgb8> png;
+  const Status read = read_color_image((out / "preview.png").string(), png);
+  ASSERT_TRUE(read.ok()) << to_string(read.error());
+  EXPECT_EQ(png.width(), 2 * 640);
+  EXPECT_GT(png.height(), 480);
+  // The map is drawn: a good part of the colour panel is not the background.
+  int drawn = 0;
+  for (int y = 0; y < 480; ++y)
+    for (int x = 0; x < 640; ++x) drawn += !(png.view()(x, y) == Rgb8{246, 246, 246});
+  EXPECT_GT(drawn, 640 * 480 / 20) << "the checkpoint's preview shows no map";
+  EXPECT_FALSE(fs::exists(out / "map.ply"));
 }
 
 // A full disk: the run ends with an error naming the file and the reason, stats.json says

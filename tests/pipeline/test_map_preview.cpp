@@ -12,6 +12,7 @@
 #include "core/classes.h"
 #include "io/image_codec.h"
 #include "pipeline/map_preview.h"
+#include "support/alloc_counter.h"
 #include "test_support.h"
 
 namespace ef::pipeline {
@@ -210,6 +211,71 @@ TEST(MapPreview, PathOfALongRunIsReadBoundedAndEvenlySpaced) {
     EXPECT_NEAR((*path)[i].translation().x() - (*path)[i - 1].translation().x(), step, 1e-9) << i;
   EXPECT_GT(path->back().translation().x(), 9.0) << "the path reaches the end of the run";
   EXPECT_FALSE(read_preview_path((dir / "none.txt").string()).ok());
+}
+
+// A run draws its preview at every checkpoint with the previewer it made at start-up: drawing
+// again allocates only OpenCV's text drawing (a 16 kB point buffer per string, freed at once; no
+// image, depth buffer, sample column or path: those are 2.3 + 3.7 MB at a run's 640x480 panels),
+// and draws the same picture each time, the one render_map_preview draws.
+TEST(MapPreview, APreviewerDrawsAgainWithoutLargeAllocations) {
+  ASSERT_TRUE(test::allocation_counting_enabled());
+  const Scene s = room();
+  const std::vector<SE3> path = walk(0.0);
+  PreviewOptions o;
+  o.width = 320;
+  o.height = 240;
+  o.title = "a room, 100 frames";
+  auto previewer = MapPreviewer::create(o.width, o.height);
+  ASSERT_TRUE(previewer.ok()) << to_string(previewer.error());
+  auto first = (*previewer)->render(s.view(), path, o);
+  ASSERT_TRUE(first.ok()) << to_string(first.error());
+  const std::vector<Rgb8> first_pixels(first->row(0), first->row(0) + std::size_t(first->width) * first->height);
+  const auto dir = test::scratch_dir("map-preview-again");
+  ASSERT_TRUE((*previewer)->write((dir / "p.png").string(), s.view(), path, o).ok());
+
+  test::AllocationCounter count;
+  auto again = (*previewer)->render(s.view(), path, o);
+  const uint64_t bytes = count.thread_bytes(), blocks = count.thread_allocations();
+  ASSERT_TRUE(again.ok());
+  EXPECT_LT(bytes, 20u * 1024 * blocks) << "drawing again allocated " << bytes << " bytes in " << blocks << " blocks";
+  EXPECT_LT(blocks, 24u) << "more than the legend's strings";
+  ASSERT_EQ(again->width, first->width);
+  ASSERT_EQ(again->height, first->height);
+  EXPECT_TRUE(std::equal(first_pixels.begin(), first_pixels.end(), again->row(0))) << "the same map drawn differently";
+  auto fresh = render_map_preview(s.view(), path, o);
+  ASSERT_TRUE(fresh.ok());
+  ASSERT_EQ(fresh->width(), first->width);
+  ASSERT_EQ(fresh->height(), first->height);
+  EXPECT_TRUE(std::equal(first_pixels.begin(), first_pixels.end(), fresh->view().row(0)));
+
+  // The PNG written is the picture.
+  Image<Rgb8> png;
+  ASSERT_TRUE(read_color_image((dir / "p.png").string(), png).ok());
+  ASSERT_EQ(png.width(), first->width);
+  ASSERT_EQ(png.height(), first->height);
+  EXPECT_TRUE(std::equal(first_pixels.begin(), first_pixels.end(), png.view().row(0)));
+}
+
+// The path kept in memory while mapping is the one read_preview_path reads from the same poses in
+// a file: bounded, evenly spaced, to the end of the run.
+TEST(MapPreview, ThePathKeptWhileMappingIsTheFilesPath) {
+  const auto dir = test::scratch_dir("map-preview-live-path");
+  const auto file = dir / "trajectory.txt";
+  PreviewPath live(1000);
+  {
+    std::ofstream f(file);
+    for (int i = 0; i < 10000; ++i) {
+      f << i * 0.033 << " " << i * 0.001 << " 0 0 0 0 0 1\n";
+      live.add(SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i * 0.001, 0, 0)));
+    }
+  }
+  auto read = read_preview_path(file.string(), 1000);
+  ASSERT_TRUE(read.ok());
+  ASSERT_EQ(live.poses().size(), read->size());
+  for (std::size_t i = 0; i < read->size(); ++i)
+    EXPECT_NEAR(live.poses()[i].translation().x(), (*read)[i].translation().x(), 1e-9) << i;
+  EXPECT_LE(live.poses().size(), 1000u);
+  EXPECT_GT(live.poses().back().translation().x(), 9.0);
 }
 
 TEST(MapPreview, ErrorsNameTheFault) {
