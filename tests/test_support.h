@@ -38,8 +38,35 @@ inline constexpr bool kUnderEmulator =
     false;
 #endif
 
-// Frames of a sequence test: `native`, or `emulated` under qemu-user.
-constexpr int frames_native_or_emulated(int native, int emulated) { return kUnderEmulator ? emulated : native; }
+// True in the sanitizer builds (ASan + UBSan, TSan: 5-20x slower than a release build). They look
+// for memory, undefined-behaviour and threading faults, which a sequence test's short form (the one
+// qemu runs) reaches as well; its full length is run by the release build.
+inline constexpr bool kUnderSanitizer =
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+    true;
+#else
+    false;
+#endif
+#else
+    false;
+#endif
+
+// Why a test of process, signal and file-system behaviour through the command line (SIGKILL,
+// SIGTERM, a full disk, a resume) skips under qemu-user: what it checks is the host kernel's and the
+// same C++ as natively, 20-60x slower; the ARM code such a run goes through is the library's, whose
+// own tests run under qemu (Checkpoint.*, Pipeline.*, SurfelSlam.*, the package phase's mapping).
+inline constexpr const char* kProcessTestUnderEmulator =
+    "under qemu-user: a test of the host's process and file behaviour; the ARM code it runs is covered by "
+    "the library tests";
+
+// The heavy sequence tests take their short form: under qemu-user or a sanitizer.
+inline constexpr bool kShortForm = kUnderEmulator || kUnderSanitizer;
+
+// Frames of a sequence test: `native`, or `emulated` in the short form (qemu-user, sanitizers).
+constexpr int frames_native_or_emulated(int native, int emulated) { return kShortForm ? emulated : native; }
 
 // Scratch folders made during the running test. test_main.cpp's listener removes them when the
 // test passes; after a failure, or with EF_KEEP_TEST_FILES=1 set, it keeps them and prints where

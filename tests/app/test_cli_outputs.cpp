@@ -182,6 +182,7 @@ TEST(CliOutputs, TimeInTheFolderGivesEachRunItsOwnAndALatestLink) {
 // SIGKILL at a moment of the run: the trajectory has a whole line per mapped frame up to the kill,
 // stats.json parses and says "running", and no output is half written.
 TEST(CliOutputs, SigkillLeavesAReadableTrajectoryAndRunningStats) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-kill");
   const fs::path out = dir / "run";
   // Killed once stats.json has been rewritten during the run with some frames mapped.
@@ -214,6 +215,7 @@ TEST(CliOutputs, SigkillLeavesAReadableTrajectoryAndRunningStats) {
 // preview.png is drawn again with each checkpoint (issue 33): a run killed after its first
 // checkpoint leaves the picture of that map, whole, beside the checkpoint.
 TEST(CliOutputs, SigkillLeavesThePreviewOfTheLastCheckpoint) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-kill-preview");
   const fs::path out = dir / "run";
   const int status = run_and_kill({"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution",
@@ -238,6 +240,7 @@ TEST(CliOutputs, SigkillLeavesThePreviewOfTheLastCheckpoint) {
 // A full disk: the run ends with an error naming the file and the reason, stats.json says
 // "failed: ..." (written into its reserved blocks), and nothing is half written.
 TEST(CliOutputs, AFullDiskEndsTheRunWithFailedStatsAndWholeFiles) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   test::SmallDisk disk("cli-outputs-full", 512 * 1024);
   EF_SKIP_WITHOUT_SMALL_DISK(disk);
   // The final checkpoint and the map (60 and 40 bytes a surfel, some 30,000 surfels) do not fit; the
@@ -266,6 +269,7 @@ TEST(CliOutputs, AFullDiskEndsTheRunWithFailedStatsAndWholeFiles) {
 // The disk fills while the trajectory is written: the run stops at that frame with the error,
 // every line in the file is whole, and stats.json still says why.
 TEST(CliOutputs, ATrajectoryThatFillsTheDiskStopsTheRunWithWholeLines) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   test::SmallDisk disk("cli-outputs-full-traj", 1024 * 1024);
   EF_SKIP_WITHOUT_SMALL_DISK(disk);
   // Leave about 100 kB: stats.json and its 64 kB reserve, the configuration (about 12 kB, 16 kB of
@@ -298,6 +302,7 @@ TEST(CliOutputs, ATrajectoryThatFillsTheDiskStopsTheRunWithWholeLines) {
 
 // `convert` stops on SIGTERM like `run`: the frames so far are a whole recording, exit 0.
 TEST(CliOutputs, ConvertStopsOnSigtermWithAWholeRecording) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-convert-term");
   const fs::path klg = dir / "cut.klg";
   std::thread killer([klg] {
@@ -321,6 +326,7 @@ TEST(CliOutputs, ConvertStopsOnSigtermWithAWholeRecording) {
 
 // SIGKILL in the middle of `convert`: the .klg and the TUM folder read back, every frame whole.
 TEST(CliOutputs, ConvertKilledLeavesReadableRecordings) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-convert-kill");
   for (const std::string& to : {"klg:" + (dir / "cut.klg").string(), "tum:" + (dir / "tum").string()}) {
     const fs::path list = to[0] == 'k' ? dir / "cut.klg" : dir / "tum" / "depth.txt";
@@ -353,6 +359,7 @@ TEST(CliOutputs, ConvertKilledLeavesReadableRecordings) {
 // and map, byte for byte (labels included, in a deterministic run). A corrupt newest checkpoint is
 // named and the one before it used.
 TEST(CliOutputs, ResumeContinuesTheRunExactlyAndSurvivesACorruptCheckpoint) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-resume");
   const std::string source = "synthetic:bedroom?frames=90&size=160x120";
   const auto run = [&](const std::string& out, const std::vector<std::string>& more) {
@@ -419,6 +426,7 @@ TEST(CliOutputs, ResumeContinuesTheRunExactlyAndSurvivesACorruptCheckpoint) {
 
 // SIGKILL after a checkpoint, then --resume: the finished trajectory is the uninterrupted run's.
 TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-kill-resume");
   const std::string frames = std::to_string(test::frames_native_or_emulated(300, 150));
   const std::vector<std::string> run = {"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution",
@@ -447,6 +455,7 @@ TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
 // A full disk while a run logs: the log ends at its last whole chunk and says where it failed; the
 // run reports it and stats.json says failed.
 TEST(CliOutputs, AFullDiskCutsTheFieldLogAfterAWholeChunkAndTheRunSaysSo) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   test::SmallDisk disk("cli-outputs-log-full", 512 * 1024);
   EF_SKIP_WITHOUT_SMALL_DISK(disk);
   const fs::path out = disk.dir() / "run";

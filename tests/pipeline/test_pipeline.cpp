@@ -236,12 +236,7 @@ TEST(Pipeline, SlowCnnNeitherHoldsMappingBackNorFusesAtTheWrongPose) {
 // CNN every 5th frame; the global counter sees the front and CNN threads too.
 TEST(Pipeline, ThreeThousandFramesOnThreeThreadsAllocateNothing) {
   ASSERT_TRUE(test::allocation_counting_enabled());
-#if defined(__SANITIZE_THREAD__)
-  constexpr bool kUnderTsan = true;
-#else
-  constexpr bool kUnderTsan = false;
-#endif
-  constexpr int64_t kFrames = test::kUnderEmulator || kUnderTsan ? 300 : 3000;  // qemu and TSan: 20-60x slower
+  constexpr int64_t kFrames = test::kShortForm ? 300 : 3000;  // qemu and the sanitizers: 5-60x slower
   constexpr int64_t kWarmUp = 10;  // first frames: dispatch choices, the map's first growth
   // The source goes on past the counted frames: when the front and CNN threads end, OpenCV's
   // thread-local storage allocates in its destructor (once per thread, not per frame).
