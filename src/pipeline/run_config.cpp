@@ -25,8 +25,8 @@ const opt::Table<RunOptions>& RunOptions::table() {
       {"progress", "", "--quiet", &RunOptions::progress, "", opt::any(), "progress line on stderr"},
       {"map", "", "", &RunOptions::map, "", opt::any(), "write map.ply at the end of the run"},
       {"preview", "", "--no-preview", &RunOptions::preview, "", opt::any(),
-       "write preview.png at the end of the run: the map in colour and in its classes, the camera's path, a "
-       "legend (edgefusion view draws any map the same way)"},
+       "write preview.png with each checkpoint and at the end of the run: the map in colour and in its "
+       "classes, the camera's path, a legend (edgefusion view draws any map the same way)"},
       {"report", "", "--no-report", &RunOptions::report, "", opt::any(),
        "write report.html at the end of the run: one self-contained page with the map's picture, the path from "
        "above, the stages' times, the rate over the run, the counters, the map's classes and the configuration"},
