@@ -146,4 +146,6 @@ int cmd_view(int argc, char** argv) {
   return 0;
 }
 
+const std::vector<OptionSpec>& view_options() { return kViewOptions; }
+
 }  // namespace ef::app
