@@ -91,9 +91,10 @@ class TumTrajectoryWriter {
 };
 
 // Rewrites the pose lines of a TUM file through `correct`, called with each pose line's timestamp
-// and pose: when it returns true with a new pose, the line is written again with it (as
-// TumTrajectoryWriter writes lines); otherwise the line stays as it was, byte for byte, as do comments
-// and blank lines. `comment` (one line, may be empty: none) goes in as "# <comment>" after the first
+// and pose: when it returns true with a new pose, the line is written again with it (its timestamp
+// as the line had it, the pose as TumTrajectoryWriter writes poses); otherwise the line stays as it
+// was, byte for byte, as do comments and blank lines. A line repeating the previous one's timestamp
+// is a pose line too. `comment` (one line, may be empty: none) goes in as "# <comment>" after the first
 // line, replacing a line from an earlier rewrite that starts with the same first `comment_key` bytes.
 // The file is replaced whole (written beside it, synced, renamed: io/durable_file.h), so a crash
 // leaves the old version or the new one. Errors name the file and the line (a line that is not a
