@@ -74,6 +74,10 @@ Status parse_line(const std::string& line, const std::string& path, int line_no,
   const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // (w, x, y, z)
   const double qn = q.norm();
   if (!(qn > 1e-9)) return error(ErrorCode::kCorruptData, where(path, line_no) + "zero quaternion");
+  // Components past ~1e154 overflow the norm: normalised, such a quaternion is NaN or zero, a pose
+  // that is no rotation (found by fuzz_trajectory, issue 34).
+  if (!std::isfinite(qn))
+    return error(ErrorCode::kCorruptData, where(path, line_no) + "quaternion too large to normalise (its norm overflows)");
   if (!traj.poses.empty() && v[0] == traj.poses.back().timestamp) {
     // The same instant twice: the later line wins (the TUM tools' dictionary keeps the last).
     if (traj.duplicates++ == 0) traj.first_duplicate_line = line_no;

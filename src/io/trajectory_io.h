@@ -38,7 +38,7 @@ struct Trajectory {
 };
 
 // Reads a TUM trajectory. Errors name the file and the 1-based line: a field that is not a finite
-// number, a line without exactly 8 fields, a zero quaternion, a timestamp smaller than the previous
+// number, a line without exactly 8 fields, a zero quaternion or one whose norm overflows, a timestamp smaller than the previous
 // one (an equal one replaces the previous pose: Trajectory::duplicates). An empty file (no poses) is not an error here; evaluators reject it. A last line
 // without its newline that is not a valid pose line is what a writer killed mid-line leaves: it is
 // left out and named in Trajectory::cut_line, not an error (one with its newline is an error).

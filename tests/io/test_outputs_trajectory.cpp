@@ -171,5 +171,32 @@ TEST(OutputsTrajectory, RewriteKeepsTimestampsAsWrittenSoTheFileStillReads) {
   EXPECT_TRUE(read_tum_trajectory(path).ok());
 }
 
+// fuzz_trajectory's second finding (issue 34), the line of its reproducer: a quaternion component of
+// 4.4e190 squared overflows the norm to infinity, which passed the zero check; normalised, the pose
+// had a NaN rotation (a rewrite then wrote "nan" and the file no longer read). Now the line is refused.
+TEST(OutputsTrajectory, AQuaternionWhoseNormOverflowsIsRefusedNamingTheLine) {
+  const std::string path = (test::scratch_dir("traj_overflow") / "t.txt").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "# timestamp tx ty tz qx qy qz qw\n"
+           "1.0 0 0 0 0 0 0 1\n"
+           "2.6728236675262451 1.4618151574111116 0.43963762605913126 0.57946207342 -0.443458687 -0.5767881 "
+           "0.522504547 0.44457e191\n";
+  }
+  auto t = read_tum_trajectory(path);
+  ASSERT_FALSE(t.ok());
+  EXPECT_EQ(t.error().code, ErrorCode::kCorruptData);
+  EXPECT_NE(t.error().message.find(path + ":3: quaternion too large to normalise"), std::string::npos)
+      << t.error().message;
+  // Large but finite norms are still taken and normalised, as before.
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "3.0 0 0 0 0 0 0 1e150\n";
+  }
+  auto big = read_tum_trajectory(path);
+  ASSERT_TRUE(big.ok()) << to_string(big.error());
+  EXPECT_NEAR(big->poses[0].T_wc.rotation().w(), 1.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace ef
