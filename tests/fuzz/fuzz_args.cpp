@@ -1,6 +1,6 @@
 // libFuzzer target for the command line (firmware_app/args.h): every command's option table as its
 // parse_args() takes it (commands.h command_syntaxes()), the typed values (integers, numbers, WxH,
-// ISA names), and for run and plan the configuration the flags build (config_file.h
+// poses, ISA names), and for run and plan the configuration the flags build (config_file.h
 // config_from_args: every key's flag and value parser) with its validate(). Nothing is run: the
 // commands' work starts after this, and --config FILE is not read (fuzz_config covers the file).
 // Input: byte 0 picks the command, the rest is its arguments separated by NUL bytes (at most 64).
@@ -54,6 +54,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       (void)args->get_double(o.name, 0, 0.0, 10.0);
     } else if (kind == "WxH") {
       (void)ef::app::parse_resolution(args->get(o.name), o.name);
+    } else if (kind.rfind("\"TX", 0) == 0) {  // view --pose "TX TY TZ QX QY QZ QW"
+      (void)ef::app::parse_pose(args->get(o.name), o.name);
     } else if (kind == "NAME") {
       (void)ef::semantic::parse_isa(args->get(o.name), o.name);
     }

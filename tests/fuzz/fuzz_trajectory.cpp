@@ -2,7 +2,8 @@
 // (ground truth and estimate), what --labels-final-out reads back (the run's trajectory.txt, lost
 // frames marked), and the loop closure's rewrite of that file in place (rewrite_tum_poses).
 // Input: "<ground truth>\0<estimate>" (without a NUL byte, the text is both).
-//   1. Both read from in-memory files; when both read, ATE and RPE as `eval` computes them (eval/).
+//   1. Both read from in-memory files; when both read, ATE and RPE as `eval` computes them (eval/);
+//      the estimate also as the map preview's path (pipeline/map_preview.h read_preview_path).
 //   2. The estimate written to a scratch file (tmpfs) and rewritten with every other pose moved, a
 //      comment line put in, then rewritten again with the same comment key (the earlier comment is
 //      replaced). A file that read back whole (no cut last line) and was rewritten must read back
@@ -19,6 +20,7 @@
 #include "eval/trajectory_eval.h"
 #include "fuzz_support.h"
 #include "io/trajectory_io.h"
+#include "pipeline/map_preview.h"
 
 namespace {
 
@@ -46,6 +48,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)ef::evaluate_rpe(*gt, *estimate, 1);
     (void)ef::evaluate_rpe(*gt, *estimate, 3, 0.5);
   }
+  // The path `view --trajectory` and the preview draw: a reader of its own (every k-th pose kept).
+  (void)ef::pipeline::read_preview_path(est_file.path(), 16);
 
   const std::string path = (ef::fuzz::scratch_dir() / "trajectory.txt").string();
   ef::fuzz::write_file(path, est, est_size);

@@ -17,6 +17,7 @@
 #include "firmware_app/config_file.h"
 #include "fixtures.h"
 #include "io/image_codec.h"
+#include "io/ply_writer.h"
 #include "io/trajectory_io.h"
 #include "nn/executor.h"
 #include "nn/model_format.h"
@@ -152,6 +153,8 @@ void recording_seeds(const fuzz::Recording& r) {
   std::snprintf(kt, sizeof kt, "%.9g 0 %.9g\n0 %.9g %.9g\n0 0 1\n", double(k.fx), double(k.cx), double(k.fy), double(k.cy));
   seed("lists", "7scenes_camera_intrinsics.txt", kt, byte(4));
   seed("lists", "uri.txt", "klg:rec.klg?size=16x12&fx=20&fy=20&cx=7.5&cy=5.5", byte(5));
+  check(write_klg_side_file(scratch("side.klg"), r.intrinsics), "side file");
+  seed("lists", "klg_side_file.txt", fuzz::read_file(klg_side_file(scratch("side.klg"))), byte(6));
 
   // fuzz_trajectory: "<ground truth>\0<estimate>": the TUM writer's ground truth, and the run's own
   // trajectory writer with a lost frame marked.
@@ -170,6 +173,35 @@ void recording_seeds(const fuzz::Recording& r) {
   seed("trajectory", "estimate_alone.txt", est_text);
   // A trajectory cut while written (no newline at the end of the last line).
   seed("trajectory", "estimate_cut.txt", est_text.substr(0, est_text.size() - 7));
+}
+
+// ---- Maps (fuzz_ply) ----
+
+void ply_seeds() {
+  // 24 surfels on two walls of a corner, every column set, as map.ply has them.
+  SurfelCloud c;
+  for (int i = 0; i < 24; ++i) {
+    const bool wall = i < 12;
+    const float u = 0.1f * float(i % 4), v = 0.1f * float((i / 4) % 3);
+    c.x.push_back(wall ? u : 0.0f);
+    c.y.push_back(v);
+    c.z.push_back(wall ? 1.0f : 1.0f - u);
+    c.nx.push_back(wall ? 0.0f : 1.0f);
+    c.ny.push_back(0.0f);
+    c.nz.push_back(wall ? -1.0f : 0.0f);
+    c.red.push_back(static_cast<uint8_t>(40 + 8 * i));
+    c.green.push_back(static_cast<uint8_t>(200 - 5 * i));
+    c.blue.push_back(static_cast<uint8_t>(90));
+    c.radius.push_back(0.02f + 0.001f * float(i));
+    c.confidence.push_back(1.0f + float(i));
+    c.class_id.push_back(static_cast<uint8_t>(i % 14));
+    c.class_prob.push_back(0.5f + 0.02f * float(i));
+  }
+  check(write_surfel_ply(scratch("map.ply"), c.view(), "fuzz_corpus: a corner"), "map.ply");
+  seed("ply", "map_with_classes.ply", fuzz::read_file(scratch("map.ply")));
+  c.has_classes = false;
+  check(write_surfel_ply(scratch("map_nolabels.ply"), c.view()), "map.ply");
+  seed("ply", "map_without_classes.ply", fuzz::read_file(scratch("map_nolabels.ply")));
 }
 
 // ---- URIs (fuzz_uri) ----
@@ -480,6 +512,7 @@ int main(int argc, char** argv) {
   image_seeds(fuzz::synthetic_recording(2, 8, 8));
   recording_seeds(r);
   uri_seeds();
+  ply_seeds();
   config_seeds();
   args_seeds();
   checkpoint_seeds();
