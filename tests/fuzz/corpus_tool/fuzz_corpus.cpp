@@ -107,10 +107,22 @@ void image_seeds(const fuzz::Recording& r) {
 // ---- Recordings (fuzz_klg, fuzz_mcap, fuzz_lists, fuzz_uri) ----
 
 void recording_seeds(const fuzz::Recording& r) {
-  // fuzz_klg: bytes 0 and 1 = width - 1, height - 1 (1..32 each), then the .klg.
+  // fuzz_klg: bytes 0 and 1 = width - 1, height - 1 (1..32 each), then the .klg. The JPEG seed's
+  // frames are 32x24: the writer stores raw colour when a JPEG would not be smaller, which at 16x12
+  // (576 bytes raw, the JPEG's tables alone about as much) it never is.
   const std::string size = byte(r.intrinsics.width - 1) + byte(r.intrinsics.height - 1);
-  fuzz::write_klg(scratch("zlib_jpeg.klg"), r, KlgWriteOptions{true, 90});
-  seed("klg", "zlib_depth_jpeg_color.klg", fuzz::read_file(scratch("zlib_jpeg.klg")), size);
+  const fuzz::Recording r32 = fuzz::synthetic_recording(2, 32, 24);
+  const auto has_jpeg = [](const std::string& bytes) {
+    if (bytes.find("\xFF\xD8\xFF") != std::string::npos) return bytes;
+    std::fprintf(stderr, "fuzz_corpus: a .klg seed meant to hold JPEG colour holds none\n");
+    std::exit(1);
+  };
+  fuzz::write_klg(scratch("zlib_jpeg.klg"), r32, KlgWriteOptions{true, 50});
+  seed("klg", "zlib_depth_jpeg_color.klg", has_jpeg(fuzz::read_file(scratch("zlib_jpeg.klg"))), byte(31) + byte(23));
+  fuzz::write_klg(scratch("raw_jpeg.klg"), r32, KlgWriteOptions{false, 90});
+  seed("klg", "raw_depth_jpeg_color.klg", has_jpeg(fuzz::read_file(scratch("raw_jpeg.klg"))), byte(31) + byte(23));
+  fuzz::write_klg(scratch("zlib_raw.klg"), r, KlgWriteOptions{true, 0});
+  seed("klg", "zlib_depth_raw_color.klg", fuzz::read_file(scratch("zlib_raw.klg")), size);
   fuzz::write_klg(scratch("raw.klg"), r, KlgWriteOptions{false, 0});
   const std::string raw = fuzz::read_file(scratch("raw.klg"));
   seed("klg", "raw_depth_raw_color.klg", raw, size);
