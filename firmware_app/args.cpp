@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <sstream>
 
 namespace ef::app {
 
@@ -129,6 +130,21 @@ Result<std::pair<int, int>> parse_resolution(const std::string& text, const std:
   if (w < 8 || h < 8 || w > 8192 || h > 8192)
     return error(ErrorCode::kInvalidArgument, what + ": " + text + " is outside 8x8 .. 8192x8192");
   return std::make_pair(static_cast<int>(w), static_cast<int>(h));
+}
+
+Result<SE3> parse_pose(const std::string& text, const std::string& what) {
+  std::istringstream s(text);
+  double v[7];
+  std::string extra;
+  for (double& d : v)
+    if (!(s >> d)) return error(ErrorCode::kInvalidArgument, what + " needs 7 numbers: TX TY TZ QX QY QZ QW");
+  if (s >> extra) return error(ErrorCode::kInvalidArgument, what + " needs 7 numbers: TX TY TZ QX QY QZ QW");
+  const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+  const double norm = q.norm();
+  if (!(norm > 1e-9)) return error(ErrorCode::kInvalidArgument, what + ": the quaternion is zero");
+  if (!std::isfinite(norm))
+    return error(ErrorCode::kInvalidArgument, what + ": the quaternion is too large to normalise (its norm overflows)");
+  return SE3(q, Eigen::Vector3d(v[0], v[1], v[2]));
 }
 
 }  // namespace ef::app

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/result.h"
+#include "core/se3.h"
 
 namespace ef::app {
 
@@ -49,5 +50,10 @@ std::string format_help(const std::string& usage, const std::string& description
 
 // Parses "WIDTHxHEIGHT" (e.g. "320x240"); errors name `what`.
 Result<std::pair<int, int>> parse_resolution(const std::string& text, const std::string& what);
+
+// Parses "TX TY TZ QX QY QZ QW" (camera-to-world, TUM order: metres, then a quaternion normalised
+// here) into a pose; errors name `what`: not 7 numbers, a zero quaternion, or one whose norm
+// overflows (a NaN rotation otherwise).
+Result<SE3> parse_pose(const std::string& text, const std::string& what);
 
 }  // namespace ef::app

@@ -71,6 +71,19 @@ namespace ef::app {
 
 const char* source_uri_help_text() { return source_uri_help(); }
 
+// The positional counts and first indices are those each command passes to parse_args().
+const std::vector<CommandSyntax>& command_syntaxes() {
+  static const std::vector<CommandSyntax> all = {
+      {"run", 2, 0, run_command_options, true},          {"plan", 2, 0, plan_command_options, true},
+      {"eval ate", 3, 2, eval_ate_options, false},       {"eval rpe", 3, 2, eval_rpe_options, false},
+      {"eval labels", 3, 2, eval_labels_options, false}, {"convert", 2, 0, convert_options, false},
+      {"log", 2, 0, log_options, false},                 {"segment", 2, 0, segment_options, false},
+      {"model info", 3, 1, model_info_options, false},   {"model import", 3, 0, model_import_options, false},
+      {"export", 2, 1, export_options, false},           {"view", 2, 1, view_options, false},
+  };
+  return all;
+}
+
 int report_error(const char* command, const Error& err, int code) {
   std::fprintf(stderr, "%s: error: %s\n", command, to_string(err).c_str());
   return code;

@@ -162,4 +162,6 @@ int cmd_convert(int argc, char** argv) {
   return exit_code;
 }
 
+const std::vector<OptionSpec>& convert_options() { return kConvertOptions; }
+
 }  // namespace ef::app

@@ -121,4 +121,8 @@ int cmd_eval(int argc, char** argv) {
   return 2;
 }
 
+const std::vector<OptionSpec>& eval_ate_options() { return kAteOptions; }
+const std::vector<OptionSpec>& eval_rpe_options() { return kRpeOptions; }
+const std::vector<OptionSpec>& eval_labels_options() { return kLabelOptions; }
+
 }  // namespace ef::app

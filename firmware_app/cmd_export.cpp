@@ -63,4 +63,6 @@ int cmd_export(int argc, char** argv) {
   return 0;
 }
 
+const std::vector<OptionSpec>& export_options() { return kExportOptions; }
+
 }  // namespace ef::app

@@ -188,4 +188,6 @@ int cmd_log(int argc, char** argv) {
   return exit_code;
 }
 
+const std::vector<OptionSpec>& log_options() { return kLogOptions; }
+
 }  // namespace ef::app

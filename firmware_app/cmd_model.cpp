@@ -364,4 +364,7 @@ int cmd_model(int argc, char** argv) {
   return 2;
 }
 
+const std::vector<OptionSpec>& model_info_options() { return kInfoOptions; }
+const std::vector<OptionSpec>& model_import_options() { return kImportOptions; }
+
 }  // namespace ef::app

@@ -84,4 +84,6 @@ int cmd_plan(int argc, char** argv) {
   return 0;
 }
 
+const std::vector<OptionSpec>& plan_command_options() { return plan_options(); }
+
 }  // namespace ef::app

@@ -394,4 +394,6 @@ int cmd_run(int argc, char** argv) {
   return exit_code;
 }
 
+const std::vector<OptionSpec>& run_command_options() { return run_options(); }
+
 }  // namespace ef::app

@@ -252,4 +252,6 @@ int cmd_segment(int argc, char** argv) {
   return exit_code;
 }
 
+const std::vector<OptionSpec>& segment_options() { return kSegmentOptions; }
+
 }  // namespace ef::app

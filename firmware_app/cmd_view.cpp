@@ -110,18 +110,9 @@ int cmd_view(int argc, char** argv) {
   }
   options.top = args->has("--top");
   if (args->has("--pose")) {
-    std::istringstream s(args->get("--pose"));
-    double v[7];
-    std::string extra;
-    for (double& d : v)
-      if (!(s >> d))
-        return report_error(kCmd, error(ErrorCode::kInvalidArgument, "--pose needs 7 numbers: TX TY TZ QX QY QZ QW"), 2);
-    if (s >> extra)
-      return report_error(kCmd, error(ErrorCode::kInvalidArgument, "--pose needs 7 numbers: TX TY TZ QX QY QZ QW"), 2);
-    const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
-    if (!(q.norm() > 1e-9))
-      return report_error(kCmd, error(ErrorCode::kInvalidArgument, "--pose: the quaternion is zero"), 2);
-    options.pose = SE3(q, Eigen::Vector3d(v[0], v[1], v[2]));
+    auto pose = parse_pose(args->get("--pose"), "--pose");
+    if (!pose.ok()) return report_error(kCmd, pose.error(), 2);
+    options.pose = *pose;
   }
 
   auto map = load_map(args->positionals()[0]);
@@ -145,5 +136,7 @@ int cmd_view(int argc, char** argv) {
               static_cast<long long>(path.size()));
   return 0;
 }
+
+const std::vector<OptionSpec>& view_options() { return kViewOptions; }
 
 }  // namespace ef::app

@@ -3,7 +3,9 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
+#include "args.h"
 #include "core/result.h"
 
 namespace ef::app {
@@ -21,6 +23,31 @@ int cmd_plan(int argc, char** argv);
 int cmd_export(int argc, char** argv);
 int cmd_log(int argc, char** argv);
 int cmd_view(int argc, char** argv);
+
+// The option tables of the commands, as each one's parse_args() takes them (defined beside each
+// command), and the list of every command's syntax: what `edgefusion <words> ...` accepts before it
+// does anything. The command-line fuzz target (tests/fuzz/fuzz_args.cpp) parses with these.
+const std::vector<OptionSpec>& run_command_options();
+const std::vector<OptionSpec>& plan_command_options();
+const std::vector<OptionSpec>& eval_ate_options();
+const std::vector<OptionSpec>& eval_rpe_options();
+const std::vector<OptionSpec>& eval_labels_options();
+const std::vector<OptionSpec>& convert_options();
+const std::vector<OptionSpec>& log_options();
+const std::vector<OptionSpec>& segment_options();
+const std::vector<OptionSpec>& model_info_options();
+const std::vector<OptionSpec>& model_import_options();
+const std::vector<OptionSpec>& export_options();
+const std::vector<OptionSpec>& view_options();
+
+struct CommandSyntax {
+  const char* words;      // "run", "eval ate"
+  int first;              // argv index of its first option or argument (2; 3 after a sub-command)
+  int positionals;        // positional arguments it takes (parse_args' positional_count)
+  const std::vector<OptionSpec>& (*options)();
+  bool takes_config;      // run and plan: the flags of the configuration keys (config_file.h)
+};
+const std::vector<CommandSyntax>& command_syntaxes();
 
 // The list of source URI forms, for help texts.
 const char* source_uri_help_text();

@@ -11,6 +11,7 @@ clear message instead of an IndexError deep inside.
 Only what the importer needs is decoded: operator codes, the first subgraph's tensors (shape, type,
 buffer, name, quantisation) and operators (inputs, outputs, builtin options), and the buffers.
 """
+import math
 import struct
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional
@@ -245,6 +246,14 @@ def parse(data: bytes, name: str) -> Model:
         tensor = Tensor(index=i, name=t.string(3, what + ".name"), shape=[int(s) for s in t.array(0, np.int32, what + ".shape")],
                         dtype=TENSOR_TYPES.get(type_code), type_name=TENSOR_TYPE_NAMES.get(type_code, str(type_code)),
                         buffer=t.scalar(2, "I", 0), scale=scale, zero_point=zp, quantized_dimension=qdim)
+        if scale.size > 1:
+            # Per-axis quantisation: one scale per index of the quantised dimension (schema.fbs).
+            if not 0 <= qdim < len(tensor.shape) or tensor.shape[qdim] != scale.size:
+                raise TFLiteError(f"{name}: tensor {i} '{tensor.name}': {scale.size} per-axis scales along "
+                                  f"dimension {qdim} of shape {tensor.shape}")
+            if zp.size not in (0, 1, scale.size):
+                raise TFLiteError(f"{name}: tensor {i} '{tensor.name}': {zp.size} zero points for "
+                                  f"{scale.size} per-axis scales")
         if tensor.buffer >= len(buffers) and tensor.buffer != 0:
             raise TFLiteError(f"{name}: tensor {i} '{tensor.name}': buffer {tensor.buffer} out of range "
                               f"({len(buffers)} buffers)")
@@ -252,7 +261,12 @@ def parse(data: bytes, name: str) -> Model:
         if raw.size:
             if tensor.dtype is None:
                 raise TFLiteError(f"{name}: tensor {i} '{tensor.name}': constant of type {tensor.type_name} not supported")
-            count = int(np.prod(tensor.shape)) if tensor.shape else 1
+            # A constant's shape is known: no dimension below 0 (-1 means "dynamic" in activations
+            # only). The count in Python integers (numpy's int64 product wraps for huge shapes).
+            if any(d < 0 for d in tensor.shape):
+                raise TFLiteError(f"{name}: tensor {i} '{tensor.name}': constant of shape {tensor.shape} "
+                                  f"has a negative dimension")
+            count = math.prod(tensor.shape)
             itemsize = np.dtype(tensor.dtype).itemsize
             if raw.size != count * itemsize:
                 raise TFLiteError(f"{name}: tensor {i} '{tensor.name}': buffer of {raw.size} bytes for shape "

@@ -122,6 +122,72 @@ class Reader(unittest.TestCase):
         with self.assertRaisesRegex(tflite.TFLiteError, "file identifier"):
             tflite.parse(b"\x10\x00\x00\x00ONNX" + bytes(32), "x.tflite")
 
+    # Reproducers of tests/fuzz/tflite/fuzz_tflite.py's findings (issue 34), minimised: one-tensor
+    # models that edgefusion_models.tflite_write builds. Before the fix, dequantize() raised an
+    # IndexError (a quantised dimension beyond the shape) and a ValueError (per-axis scales that do
+    # not match that dimension), and parse() a ValueError from numpy's reshape (two -1 dimensions).
+    QDIM_OUT_OF_RANGE = bytes.fromhex(
+        "1800000054464c330e001800040008000c00100014000000100000000300000010000000100000001400000018000000"
+        "000000000100000028000000000000000000000002000000340000003c0000000e001800040008000c00100014000000"
+        "100000002c00000030000000340000003800000038000000040004000400000006000800040000000800000040000000"
+        "01000000500000000100000000000000010000000000000000000000040000006d61696e000000000000000000000000"
+        "00000000000000000000000002000000010200000e001800040008000c00100014000000100000001400000009000000"
+        "01000000100000002800000001000000020000000100000074000000120010000000000004000800000000000c000000"
+        "140000000c000000140000000300000002000000cdcccc3dcdcc4c3e0200000000000000000000000000000000000000")
+    SCALES_DO_NOT_MATCH = bytes.fromhex(
+        "1800000054464c330e001800040008000c00100014000000100000000300000010000000100000001400000018000000"
+        "000000000100000028000000000000000000000002000000340000003c0000000e001800040008000c00100014000000"
+        "100000002c00000030000000340000003800000038000000040004000400000006000800040000000800000040000000"
+        "01000000500000000100000000000000010000000000000000000000040000006d61696e000000000000000000000000"
+        "00000000000000000000000002000000010200000e001800040008000c00100014000000100000001400000009000000"
+        "010000001c00000034000000040000000100000001000000010000000200000001000000740000001200100000000000"
+        "04000800000000000c000000140000000c000000180000000300000003000000cdcccc3dcdcc4c3e9a99993e03000000"
+        "000000000000000000000000000000000000000000000000")
+    TWO_UNKNOWN_DIMENSIONS = bytes.fromhex(
+        "1800000054464c330e001800040008000c00100014000000100000000300000010000000100000001400000018000000"
+        "000000000100000028000000000000000000000002000000340000003c0000000e001800040008000c00100014000000"
+        "100000002c00000030000000340000003800000038000000040004000400000006000800040000000800000040000000"
+        "010000004c0000000100000000000000010000000000000000000000040000006d61696e000000000000000000000000"
+        "00000000000000000000000001000000070000000c001400040008000c0010000c000000100000000900000001000000"
+        "1000000002000000ffffffffffffffff010000007400")
+
+    def test_fuzz_findings_are_clear_errors(self):
+        cases = ((self.QDIM_OUT_OF_RANGE, "2 per-axis scales along dimension 3 of shape \\[2\\]"),
+                 (self.SCALES_DO_NOT_MATCH, "3 per-axis scales along dimension 3 of shape \\[1, 1, 1, 2\\]"),
+                 (self.TWO_UNKNOWN_DIMENSIONS, "constant of shape \\[-1, -1\\] has a negative dimension"))
+        for data, message in cases:
+            with self.assertRaisesRegex(tflite.TFLiteError, "fuzz.tflite: tensor 0 't': " + message):
+                tflite.parse(data, "fuzz.tflite")
+
+    def test_fuzz_reproducers_are_what_the_writer_builds(self):
+        # The bytes above stay explainable: the writer makes them from these descriptions.
+        from edgefusion_models import tflite_write
+
+        def one(shape, data, scale=None, zero_point=None, qdim=0):
+            m = tflite_write.ModelBuilder("")
+            t = m.tensor("t", [len(data)], data=np.array(data), scale=scale, zero_point=zero_point, qdim=qdim)
+            m.tensors[t].fields[0] = ("vector:i", shape)
+            return m.write([t], [t])
+        self.assertEqual(one([2], [1, 2], [0.1, 0.2], [0, 0], 3), self.QDIM_OUT_OF_RANGE)
+        self.assertEqual(one([1, 1, 1, 2], [1, 2], [0.1, 0.2, 0.3], [0, 0, 0], 3), self.SCALES_DO_NOT_MATCH)
+        self.assertEqual(one([-1, -1], [7]), self.TWO_UNKNOWN_DIMENSIONS)
+
+    def test_writer_seeds_read_back(self):
+        # The fuzzer's seeds (tests/fuzz/make_corpus.sh): every operator and tensor kind decoded.
+        from edgefusion_models import tflite_write
+        m = tflite.parse(tflite_write.tiny_int8_model(), "seed.tflite")
+        self.assertEqual([o.opcode for o in m.operators],
+                         ["CONV_2D", "DEPTHWISE_CONV_2D", "AVERAGE_POOL_2D", "MAX_POOL_2D", "ADD", "RELU6",
+                          "CONCATENATION", "RESIZE_BILINEAR", "HARD_SWISH", "SOFTMAX", "DEQUANTIZE",
+                          "CUSTOM:EdgeFusionNoop"])
+        self.assertEqual(m.operators[1].options["stride_h"], 2)
+        self.assertEqual(m.operators[-1].inputs[-1], -1)
+        w = m.tensors[m.operators[0].inputs[1]]
+        self.assertEqual((w.shape, w.scale.size, w.quantized_dimension), ([4, 3, 3, 3], 4, 0))
+        self.assertEqual(tflite.dequantize(w).shape, (4, 3, 3, 3))
+        f = tflite.parse(tflite_write.tiny_float_model(), "float.tflite")
+        self.assertAlmostEqual(float(tflite.dequantize(f.tensors[1]).sum()), 1.5, places=5)
+
     @unittest.skipUnless(have_deeplab(), "../shared/models/deeplabv3-mnv2-ade20k absent")
     def test_truncated_file_names_the_place(self):
         data = open(DEEPLAB, "rb").read()

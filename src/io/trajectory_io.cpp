@@ -74,6 +74,10 @@ Status parse_line(const std::string& line, const std::string& path, int line_no,
   const Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);  // (w, x, y, z)
   const double qn = q.norm();
   if (!(qn > 1e-9)) return error(ErrorCode::kCorruptData, where(path, line_no) + "zero quaternion");
+  // Components past ~1e154 overflow the norm: normalised, such a quaternion is NaN or zero, a pose
+  // that is no rotation (found by fuzz_trajectory, issue 34).
+  if (!std::isfinite(qn))
+    return error(ErrorCode::kCorruptData, where(path, line_no) + "quaternion too large to normalise (its norm overflows)");
   if (!traj.poses.empty() && v[0] == traj.poses.back().timestamp) {
     // The same instant twice: the later line wins (the TUM tools' dictionary keeps the last).
     if (traj.duplicates++ == 0) traj.first_duplicate_line = line_no;
@@ -200,13 +204,22 @@ Status TumTrajectoryWriter::append(const char* line, std::size_t n) {
 
 namespace {
 // One pose line with its newline into `line` (256 bytes); returns its length, or 0 when it does not fit.
-int format_pose_line(char* line, double timestamp, const SE3& T_wc) {
+// The timestamp is given as text: written with 6 decimals (the writer), or as a file had it (rewrite).
+int format_pose_line(char* line, const char* timestamp, const SE3& T_wc) {
   Eigen::Quaterniond q = T_wc.rotation();
   if (q.w() < 0) q.coeffs() = -q.coeffs();
   const Eigen::Vector3d& t = T_wc.translation();
-  const int n = std::snprintf(line, 256, "%.6f %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", timestamp, t.x(), t.y(), t.z(),
+  const int n = std::snprintf(line, 256, "%s %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", timestamp, t.x(), t.y(), t.z(),
                               q.x(), q.y(), q.z(), q.w());
   return n > 0 && n < 256 ? n : 0;
+}
+int format_pose_line(char* line, double timestamp, const SE3& T_wc) {
+  char stamp[400];
+  const int n = std::snprintf(stamp, sizeof stamp, "%.6f", timestamp);
+  return n > 0 && n < static_cast<int>(sizeof stamp) ? format_pose_line(line, stamp, T_wc) : 0;
+}
+int format_pose_line(char* line, const std::string& timestamp, const SE3& T_wc) {
+  return timestamp.size() < 200 ? format_pose_line(line, timestamp.c_str(), T_wc) : 0;
 }
 }  // namespace
 
@@ -266,12 +279,21 @@ Result<TumRewrite> rewrite_tum_poses(const std::string& path, PoseCorrector corr
                                  line.compare(0, 2, "# ") == 0 && line.compare(2, comment_key, comment, 0, comment_key) == 0;
     if (earlier_comment) continue;
     const std::size_t poses_before = parsed.poses.size();
+    const int duplicates_before = parsed.duplicates;
     EF_RETURN_IF_ERROR(parse_line(line, path, line_no, parsed, next_lost));
-    if (parsed.poses.size() > poses_before) {
+    // A pose line: a new pose, or one repeating the previous line's timestamp (which replaced it).
+    if (parsed.poses.size() > poses_before || parsed.duplicates > duplicates_before) {
       TimedPose& p = parsed.poses.back();
       SE3 T = p.T_wc;
       int n = 0;
-      if (correct(context, p.timestamp, &T)) n = format_pose_line(pose_line, p.timestamp, T);
+      if (correct(context, p.timestamp, &T)) {
+        // The timestamp as written (its first field), never reformatted: rounded to microseconds it
+        // could fall before an earlier line's and leave a file no reader takes (found by
+        // fuzz_trajectory, issue 34); as written, eval associates by the same instants as before.
+        std::string fields[1];
+        split_fields(line, fields, 1);
+        n = format_pose_line(pose_line, fields[0], T);
+      }
       if (n > 0) {
         text.append(pose_line, static_cast<std::size_t>(n));
         ++counts.corrected;

@@ -38,7 +38,7 @@ struct Trajectory {
 };
 
 // Reads a TUM trajectory. Errors name the file and the 1-based line: a field that is not a finite
-// number, a line without exactly 8 fields, a zero quaternion, a timestamp smaller than the previous
+// number, a line without exactly 8 fields, a zero quaternion or one whose norm overflows, a timestamp smaller than the previous
 // one (an equal one replaces the previous pose: Trajectory::duplicates). An empty file (no poses) is not an error here; evaluators reject it. A last line
 // without its newline that is not a valid pose line is what a writer killed mid-line leaves: it is
 // left out and named in Trajectory::cut_line, not an error (one with its newline is an error).
@@ -91,9 +91,10 @@ class TumTrajectoryWriter {
 };
 
 // Rewrites the pose lines of a TUM file through `correct`, called with each pose line's timestamp
-// and pose: when it returns true with a new pose, the line is written again with it (as
-// TumTrajectoryWriter writes lines); otherwise the line stays as it was, byte for byte, as do comments
-// and blank lines. `comment` (one line, may be empty: none) goes in as "# <comment>" after the first
+// and pose: when it returns true with a new pose, the line is written again with it (its timestamp
+// as the line had it, the pose as TumTrajectoryWriter writes poses); otherwise the line stays as it
+// was, byte for byte, as do comments and blank lines. A line repeating the previous one's timestamp
+// is a pose line too. `comment` (one line, may be empty: none) goes in as "# <comment>" after the first
 // line, replacing a line from an earlier rewrite that starts with the same first `comment_key` bytes.
 // The file is replaced whole (written beside it, synced, renamed: io/durable_file.h), so a crash
 // leaves the old version or the new one. Errors name the file and the line (a line that is not a

@@ -62,6 +62,10 @@ std::array<std::pair<Ptr, std::size_t>, kColumns> columns(Pool& p) {
            {p.last_seen(), 4},
            {p.labels(), slam::SurfelPool::kLabelBytesPerSurfel}}};
 }
+// The columns above are the pool's whole surfel (read_pool_header sizes the section with it).
+static_assert(11 * 4 + slam::SurfelPool::kLabelBytesPerSurfel == slam::SurfelPool::kBytesPerSurfel,
+              "a checkpoint's POOL columns are every byte of a surfel");
+
 Result<CheckpointMeta> read_meta(const SnapshotReader& r) {
   uint64_t w[kMetaWords];
   EF_RETURN_IF_ERROR(r.read(kMeta, w, sizeof w));
@@ -190,13 +194,21 @@ Result<FoundCheckpoint> find_checkpoint(const std::string& folder) {
 
 namespace {
 
-// The POOL section's surfel count and counters.
+// The POOL section's surfel count and counters. The count must be the one the section's length
+// holds: a pool is allocated for it (export, view) before the columns are read, so a corrupt count
+// must never size an allocation (a 3 KB file claiming 50 million surfels asked for 3 GB; issue 34).
 Result<std::pair<int64_t, slam::SurfelPoolCounters>> read_pool_header(const SnapshotReader& r) {
   uint64_t ph[kPoolHeaderWords];
   EF_RETURN_IF_ERROR(r.read(kPool, ph, sizeof ph));
   const int64_t n = static_cast<int64_t>(ph[0]);
   if (n < 0 || ph[0] > (uint64_t(1) << 40))
     return error(ErrorCode::kCorruptData, r.path() + ": section POOL holds an impossible surfel count");
+  // n <= 2^40: the product stays far below 2^64.
+  const uint64_t expected = kPoolHeaderWords * 8 + ph[0] * slam::SurfelPool::kBytesPerSurfel;
+  if (r.size(kPool) != expected)
+    return error(ErrorCode::kCorruptData, r.path() + ": section POOL has " + std::to_string(r.size(kPool)) +
+                                              " bytes; " + std::to_string(n) + " surfels take " +
+                                              std::to_string(expected));
   return std::make_pair(n, slam::SurfelPoolCounters{ph[1], ph[2], ph[3], ph[4]});
 }
 

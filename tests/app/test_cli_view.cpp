@@ -123,6 +123,9 @@ TEST(CliView, BadOptionsAreNamed) {
                         Case{{"view", "map.ply", "--out", png, "--size", "big"}, 2, "'big'"},
                         Case{{"view", "map.ply", "--out", png, "--top", "--pose", "0 0 0 0 0 0 1"}, 2, "give one"},
                         Case{{"view", "map.ply", "--out", png, "--pose", "1 2 3"}, 2, "7 numbers"},
+                        Case{{"view", "map.ply", "--out", png, "--pose", "0 0 0 0 0 0 0"}, 2, "quaternion is zero"},
+                        // Found reviewing fuzz_args (issue 34): a norm that overflows gave a NaN rotation.
+                        Case{{"view", "map.ply", "--out", png, "--pose", "0 0 0 1 0 0 1e200"}, 2, "too large to normalise"},
                         Case{{"view", (dir / "missing.ply").string(), "--out", png}, 1, "missing.ply"},
                         Case{{"view", (dir / "notes.txt").string(), "--out", png}, 1, "not a map"}}) {
     const auto r = cli(c.args);

@@ -1,7 +1,10 @@
-// libFuzzer target for the .efm loader. Input: the file bytes (tried as is, then with its CRC
-// fixed). A model that loads is also planned and run once on a zero image, so the validator's
-// promises (shapes, indices, sizes) are exercised by the executor too; any crash, sanitizer report
-// or hang is a bug.
+// libFuzzer target for the .efm loader (nn/model_format.h) and the executor behind it. Input: the
+// file bytes (tried as is, then with its CRC fixed). A model that loads and is within the work limit
+// below is planned and run once on an image made of the input's bytes, so the validator's promises
+// (shapes, indices, sizes) are exercised by the executor too; any crash, sanitizer report or hang is
+// a bug. The seeds (tests/fuzz/corpus/model, the corpus tool's tiny model family) are all within
+// the limit and together hold every layer type, so mutations land in layer parameters and weights
+// and the forward pass runs.
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -12,6 +15,7 @@
 namespace {
 
 void load_and_run(const uint8_t* data, size_t size) {
+  if (size == 0) return;
   auto model = ef::nn::load_model_memory(data, size, "fuzz.efm");
   if (!model.ok()) return;
   // Keep each run cheap: skip models with more than ~2^24 multiply-adds (window sizes times outputs).
@@ -27,7 +31,13 @@ void load_and_run(const uint8_t* data, size_t size) {
   if (!ex.ok()) return;
   // And with large tensors.
   if ((*ex)->arena_bytes() > (1u << 20) || (*ex)->output_floats() > (1u << 18)) return;
-  std::vector<float> in((*ex)->input_floats(), 0.0f), out((*ex)->output_floats());
+  // The input image: the file's bytes over and over (colour 0..255, depth in metres 0..2.55).
+  std::vector<float> in((*ex)->input_floats()), out((*ex)->output_floats());
+  const std::size_t channels = model->desc.tensors[model->desc.input_tensor].c;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const float v = static_cast<float>(data[(i * 7) % size]);
+    in[i] = channels == 4 && i % 4 == 3 ? v / 100.0f : v;
+  }
   (void)(*ex)->run(in.data(), in.size(), out.data(), out.size());
 }
 

@@ -127,5 +127,76 @@ TEST(OutputsTrajectory, RewriteReplacesCorrectedPosesAndKeepsEverythingElse) {
   EXPECT_FALSE(rewrite_tum_poses(path + ".missing", correct).ok());
 }
 
+// fuzz_trajectory's finding (issue 34): the reproducer below, minimised. A corrected line was
+// written with its timestamp rounded to microseconds; where a later line kept a timestamp written
+// with more digits (here a repeat of the same instant, which replaces the pose before it), the
+// rounded one fell after it, and the rewritten file no longer read ("timestamp ... is before the
+// previous one"). Now each line keeps its timestamp as written, and a repeated line is corrected too.
+TEST(OutputsTrajectory, RewriteKeepsTimestampsAsWrittenSoTheFileStillReads) {
+  const std::string path = (test::scratch_dir("traj_rewrite_stamps") / "t.txt").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "#7 2.67282367 1.46081515\n"
+           "# lost 0.033333 too few in61\x01\n"
+           "2.6728236675262451 1.4618151574111116 0.43963762605913126 0.57946207342 -0.443458687 -0.5767881 "
+           "0.522504547 0.44457719147028\n"
+           "# lost 0.033333 too few in61\x01\n"
+           "2.6728236675262451 1.4618151574111116 0.43963762605913126 0.57946207342 -0.443458687 -0.5767881 "
+           "0.522504547 0.444577191\n"
+           "2.7 0 0 0 0 0 0 1\n";
+  }
+  int calls = 0;
+  auto shift = [&calls](double, SE3* T) {
+    ++calls;
+    *T = SE3(T->rotation(), T->translation() + Eigen::Vector3d(0.01, 0, 0));
+    return true;
+  };
+  auto r = rewrite_tum_poses(path, shift, "loop closure: test", 13);
+  ASSERT_TRUE(r.ok()) << to_string(r.error());
+  EXPECT_EQ(calls, 3);  // the repeated line is a pose line as well
+  EXPECT_EQ(r->corrected, 3);
+  auto read = read_tum_trajectory(path);
+  ASSERT_TRUE(read.ok()) << to_string(read.error());
+  ASSERT_EQ(read->poses.size(), 2u);
+  EXPECT_EQ(read->duplicates, 1);
+  EXPECT_EQ(read->poses[0].timestamp, 2.6728236675262451);  // the instant as written, not 2.672824
+  EXPECT_NEAR(read->poses[0].T_wc.translation().x(), 1.4718151574111116, 1e-8);
+  EXPECT_TRUE(read->poses[0].lost);
+  std::ifstream in(path);
+  std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(text.find("\n2.6728236675262451 1.47181516 "), std::string::npos) << text;
+  // And again: a rewritten file can always be rewritten.
+  auto again = rewrite_tum_poses(path, shift, "loop closure: again", 13);
+  ASSERT_TRUE(again.ok()) << to_string(again.error());
+  EXPECT_TRUE(read_tum_trajectory(path).ok());
+}
+
+// fuzz_trajectory's second finding (issue 34), the line of its reproducer: a quaternion component of
+// 4.4e190 squared overflows the norm to infinity, which passed the zero check; normalised, the pose
+// had a NaN rotation (a rewrite then wrote "nan" and the file no longer read). Now the line is refused.
+TEST(OutputsTrajectory, AQuaternionWhoseNormOverflowsIsRefusedNamingTheLine) {
+  const std::string path = (test::scratch_dir("traj_overflow") / "t.txt").string();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "# timestamp tx ty tz qx qy qz qw\n"
+           "1.0 0 0 0 0 0 0 1\n"
+           "2.6728236675262451 1.4618151574111116 0.43963762605913126 0.57946207342 -0.443458687 -0.5767881 "
+           "0.522504547 0.44457e191\n";
+  }
+  auto t = read_tum_trajectory(path);
+  ASSERT_FALSE(t.ok());
+  EXPECT_EQ(t.error().code, ErrorCode::kCorruptData);
+  EXPECT_NE(t.error().message.find(path + ":3: quaternion too large to normalise"), std::string::npos)
+      << t.error().message;
+  // Large but finite norms are still taken and normalised, as before.
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << "3.0 0 0 0 0 0 0 1e150\n";
+  }
+  auto big = read_tum_trajectory(path);
+  ASSERT_TRUE(big.ok()) << to_string(big.error());
+  EXPECT_NEAR(big->poses[0].T_wc.rotation().w(), 1.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace ef

@@ -10,6 +10,7 @@
 #include "pipeline/checkpoint.h"
 #include "slam/surfel_slam.h"
 #include "sources/open_source.h"
+#include "support/alloc_counter.h"
 #include "test_support.h"
 
 namespace ef::pipeline {
@@ -134,6 +135,37 @@ TEST(Checkpoint, ARestoredSlamIsTheSavedOneAndGoesOnTheSame) {
   auto s = restore_checkpoint(*found, *small, restored_stats);
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().message.find("mapping.surfel_capacity"), std::string::npos) << s.error().message;
+}
+
+// fuzz_snapshot's finding (issue 34): a 4 kB checkpoint, every CRC right, whose POOL header claims
+// 50,000,000 surfels over a section that holds 48. load_checkpoint_pool (export, view) sized a pool
+// by the claim before reading the section: 3 GB allocated and zeroed for a few kB of file. Now the
+// claim is checked against the section's length first: an error naming POOL, and no large allocation.
+TEST(Checkpoint, ASurfelCountTheSectionDoesNotHoldIsRefusedBeforeAnyAllocation) {
+  const auto dir = test::scratch_dir("checkpoint-pool-count");
+  fs::copy_file(fs::path(EF_SOURCE_DIR) / "tests/data/fuzz/checkpoint_pool_count_50M.efs", dir / kCheckpointFile);
+  auto found = find_checkpoint(dir.string());
+  ASSERT_TRUE(found.ok()) << to_string(found.error());  // the container and META are whole
+  ASSERT_TRUE(test::allocation_counting_enabled());
+  test::AllocationCounter count;
+  auto pool = load_checkpoint_pool(*found);
+  const uint64_t bytes = count.thread_bytes();
+  ASSERT_FALSE(pool.ok());
+  EXPECT_EQ(pool.error().code, ErrorCode::kCorruptData);
+  EXPECT_NE(pool.error().message.find("section POOL has 2944 bytes; 50000000 surfels take 3000000064"),
+            std::string::npos)
+      << pool.error().message;
+  EXPECT_LT(bytes, uint64_t{1} << 20);  // messages only: the 3 GB pool is never asked for
+
+  // restore_checkpoint (run --resume) reads the same header: the same error, before the pool is read.
+  slam::SurfelSlamOptions options;
+  options.pool.capacity = 100;
+  auto slam = slam::SurfelSlam::create(Intrinsics{26.25f, 26.25f, 15.5f, 15.5f, 32, 32}, options);
+  ASSERT_TRUE(slam.ok());
+  StageStats stats;
+  auto s = restore_checkpoint(*found, *slam, stats);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().message.find("section POOL has 2944 bytes"), std::string::npos) << s.error().message;
 }
 
 }  // namespace
