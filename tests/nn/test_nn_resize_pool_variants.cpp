@@ -131,7 +131,9 @@ TEST(ResizeBilinearRule, HandComputed2x2To3x3) {
 // rounding is below 2 * 255 / 4096 + 1/2).
 TEST(ResizeBilinearRule, WithinOneStepOfTensorFlowFloat) {
   std::mt19937 rng(90);
-  for (auto [h, w, oh, ow] : {std::array<int, 4>{17, 25, 33, 49}, {3, 5, 7, 4}, {20, 20, 33, 33}, {33, 33, 17, 17}}) {
+  for (const std::array<int, 4>& size : {std::array<int, 4>{17, 25, 33, 49}, {3, 5, 7, 4}, {20, 20, 33, 33}, {33, 33, 17, 17}}) {
+    // Plain ints, not a structured binding: C++17 lambdas cannot capture a binding (clang refuses).
+    const int h = size[0], w = size[1], oh = size[2], ow = size[3];
     const int c = 3;
     const std::vector<int8_t> in = make_input(std::size_t(h) * w * c, Fill::kRandom, rng);
     const std::vector<int8_t> got = run_ref(in, h, w, c, oh, ow);
