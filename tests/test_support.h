@@ -62,6 +62,14 @@ inline constexpr const char* kProcessTestUnderEmulator =
     "under qemu-user: a test of the host's process and file behaviour; the ARM code it runs is covered by "
     "the library tests";
 
+// Why one of the longest sequence tests (a minute or more under qemu-user) skips there: it checks
+// tracking, fusion or the renderer over a sequence, in C++ that has no ARM-specific path; the ARM
+// arithmetic it runs is the kernels' (bit-exact against their scalar twins under qemu in
+// test_kernels and test_nn), and shorter sequence tests of the same module still run under qemu.
+inline constexpr const char* kLongSequenceTestUnderEmulator =
+    "under qemu-user: one of the longest sequence tests; its kernels are checked bit-exact under qemu and "
+    "shorter sequence tests of the module run here";
+
 // The heavy sequence tests take their short form: under qemu-user or a sanitizer.
 inline constexpr bool kShortForm = kUnderEmulator || kUnderSanitizer;
 

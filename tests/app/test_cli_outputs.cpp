@@ -428,7 +428,7 @@ TEST(CliOutputs, ResumeContinuesTheRunExactlyAndSurvivesACorruptCheckpoint) {
 TEST(CliOutputs, SigkillThenResumeGivesTheUninterruptedTrajectory) {
   if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-kill-resume");
-  const std::string frames = std::to_string(test::frames_native_or_emulated(300, 150));
+  const std::string frames = std::to_string(test::frames_native_or_emulated(300, 60));
   const std::vector<std::string> run = {"run", "--source", "synthetic:?frames=100000&size=160x120", "--resolution",
                                         "160x120", "--no-labels", "--quiet", "--frames", frames,
                                         "--checkpoint-seconds", "0.3"};

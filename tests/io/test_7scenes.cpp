@@ -192,6 +192,7 @@ namespace {
 // Every frame of the shared sequence decodes (the JPEG reader treats truncated or damaged entropy
 // data as an error, so this guards against rejecting real files) and buffers are reused.
 TEST(SevenScenes, ReadsAllRedkitchenFrames) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   EF_SKIP_WITHOUT_DATASET(dir, "7scenes-redkitchen");
   SourceUri uri;
   uri.scheme = "7scenes";

@@ -125,6 +125,7 @@ class StopAfter : public pipeline::RunObserver {
 // for each result) gives the outputs of one thread on two and three; without it the geometry is
 // still the same, whenever the CNN finishes.
 TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   const auto dir = test::scratch_dir("pipeline-threads");
   const std::string model = tiny_model(dir);
   for (const bool deterministic : {true, false}) {
@@ -167,6 +168,7 @@ TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
 // mapping: it takes a frame when it is free, its result is fused at that frame's own pose when it
 // comes, and the requests it could not take are counted.
 TEST(Pipeline, SlowCnnNeitherHoldsMappingBackNorFusesAtTheWrongPose) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   const auto dir = test::scratch_dir("pipeline-slow-cnn");
   const std::string model = tiny_model(dir);
   constexpr int kFrames = 120;

@@ -106,6 +106,7 @@ TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
 // seed 7). Without the texture gate and the photometric gain the tracker followed the vignette and
 // slid about 4 cm a frame along the wall; with them it holds.
 TEST(SurfelSlam, AKinectLikeCameraBeforeABareWallDoesNotSlide) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   // Measured here (x86-64): with / without, 45 frames 9.3 / 223 mm; 20 frames 13.1 / 63 mm (the
   // first three frames still slide 3.3, 1.6 and 0.8 cm: the map is then one or two views, whose
   // colours carry the same vignette as the frame).
@@ -128,6 +129,7 @@ TEST(SurfelSlam, AKinectLikeCameraBeforeABareWallDoesNotSlide) {
 // motion: on a smoothly moving camera it is far closer to the answer than the last pose, so the
 // tracker needs fewer Gauss-Newton steps to reach its stop thresholds, and tracks as well.
 TEST(SurfelSlam, ConstantVelocityGuessStartsCloserToTheAnswer) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   constexpr int kFrames = test::frames_native_or_emulated(40, 20);
   const std::string uri = "synthetic:office?noise=1&frames=300&size=320x240";
   SurfelSlamOptions last_pose;
@@ -149,6 +151,7 @@ TEST(SurfelSlam, ConstantVelocityGuessStartsCloserToTheAnswer) {
 // of equal rank, but not what is mapped: the same sequence with and without it tracks as well and
 // makes a map of about the same size.
 TEST(SurfelSlam, SpatialReorderingKeepsTrackingAndMap) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   constexpr int kFrames = test::frames_native_or_emulated(40, 20);
   SurfelSlamOptions never, often;
   never.spatial_order.every_frames = 0;
@@ -333,6 +336,7 @@ TEST(SurfelSlam, TinyPoolFillsUpAndCountsRefusedSurfels) {
 // pose finds those surfels; through the previous pose's, those pixels lie outside the index map and
 // become new surfels, duplicates of the old ones.
 TEST(SurfelSlam, AssociatingAtTheTrackedPoseMakesNoDuplicatesOnTheWayBack) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   constexpr int kOut = test::frames_native_or_emulated(20, 12);  // frames of the way out
   const std::string uri = "synthetic:office?noise=0&frames=1&size=320x240";
   const std::unique_ptr<synth::SyntheticSource> src = test::open_synth(uri);
@@ -500,6 +504,7 @@ TEST(SurfelSlam, CoveredLensIsLostWithoutGhostsThenResumed) {
 
 // Looking up keyframes and tracking against them allocates nothing either.
 TEST(SurfelSlam, NoHeapAllocationWhenRelocalising) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   const std::vector<Frame> frames = load_frames(kOffice600, 40);
   ASSERT_EQ(frames.size(), 40u);
   auto slam = SurfelSlam::create(WorkingFrames(kOffice600).intrinsics());

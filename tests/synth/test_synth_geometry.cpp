@@ -10,6 +10,7 @@
 #include "synth/depth_noise.h"
 #include "synth/room_builder.h"
 #include "synth/synthetic_source.h"
+#include "test_support.h"
 #include "test_synth_support.h"
 
 namespace ef {
@@ -156,6 +157,7 @@ TEST(SynthGeometry, RendererAgreesWithBruteForceRayCast) {
 }
 
 TEST(SynthGeometry, BuiltInRoomsContainAll13Classes) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   // In the scene descriptions...
   std::vector<bool> described(kNumClassesWithUnknown, false);
   for (const std::string& room : synthetic_room_names()) {

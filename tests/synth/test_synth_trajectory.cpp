@@ -9,6 +9,7 @@
 
 #include "synth/synthetic_source.h"
 #include "synth/trajectory.h"
+#include "test_support.h"
 #include "test_synth_support.h"
 
 namespace ef {
@@ -141,6 +142,7 @@ GazeSplit gaze_split(synth::SyntheticSource& src) {
 }
 
 TEST(SynthTrajectory, InspectWalksTheLoopAndLooksAcrossAndClose) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   for (const std::string& room : synthetic_room_names()) {
     const std::string what = "synthetic:" + room;
     auto loop = test::open_synth(what + "?frames=1200&size=80x60&seed=3&noise=0");
