@@ -121,6 +121,11 @@ class PanelObserver : public RunObserver {
                    "out more than %.0f ms late (counted: realtime_frames_late in stats.json)\n",
                    cmd_, FrontStage::kRealtimeLateSeconds * 1000.0);
     }
+    if (!preview_warned_ && pipeline.checkpoint_preview_error()) {
+      preview_warned_ = true;  // once: a folder that refuses one picture refuses the next ones too
+      std::fprintf(stderr, "\n%s: warning: %s: mapping goes on (stats.json counts checkpoint_previews_failed)\n",
+                   cmd_, pipeline.checkpoint_preview_error()->message.c_str());
+    }
     if (!pool_full_warned_ && slam.pool().full()) {
       // Once: from here on the map keeps the view by forgetting what it left longest ago.
       pool_full_warned_ = true;
@@ -172,6 +177,7 @@ class PanelObserver : public RunObserver {
   ServiceNotifier notifier_;
   bool panel_failed_ = false;
   bool pool_full_warned_ = false;
+  bool preview_warned_ = false;
   bool late_warned_ = false;
   std::chrono::steady_clock::time_point start_;
   char line_[128] = {};

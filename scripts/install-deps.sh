@@ -13,6 +13,9 @@
 #                              dpkg-dev (dpkg-shlibdeps), lintian, systemd (systemd-analyze verify), fakeroot
 #   install-deps.sh models     base + what models/train.sh needs (PyTorch, ONNX, OpenCV for Python)
 # Idempotent: packages already present are skipped quickly by apt.
+#   EF_DEPS_DOWNLOAD_ONLY=1    fetch the missing packages into apt's cache and install nothing (no dpkg, no npm):
+#                              .ci/run downloads the cross and packaging tools while it builds, and installs
+#                              them when nothing else is running (an arm64 library can upgrade its amd64 twin)
 set -euo pipefail
 mode="${1:-base}"
 SUDO=""
@@ -70,6 +73,11 @@ done
 if [ ${#missing[@]} -eq 0 ]; then echo "install-deps.sh: all ${#pkgs[@]} packages present"; npm_readers; exit 0; fi
 echo "install-deps.sh: installing ${#missing[@]} packages: ${missing[*]}"
 $SUDO apt-get update -qq
+if [ "${EF_DEPS_DOWNLOAD_ONLY:-0}" = 1 ]; then
+  $SUDO apt-get install -y -qq --no-install-recommends --download-only "${missing[@]}" >/dev/null
+  echo "install-deps.sh: downloaded (EF_DEPS_DOWNLOAD_ONLY=1: nothing installed)"
+  exit 0
+fi
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 npm_readers
 echo "install-deps.sh: done"

@@ -408,26 +408,9 @@ Result<Image<Rgb8>> render_map_preview(const SurfelCloudView& cloud, const std::
 
 
 Result<std::vector<SE3>> read_preview_path(const std::string& tum_file, std::size_t max_poses) {
-  std::ifstream in(tum_file);
-  if (!in) return error(ErrorCode::kNotFound, tum_file + ": cannot open the trajectory");
-  std::vector<SE3> path;
-  path.reserve(max_poses);
-  std::size_t stride = 1, line_no = 0;
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    if (line_no++ % stride != 0) continue;
-    std::istringstream f(line);
-    double t, tx, ty, tz, qx, qy, qz, qw;
-    if (!(f >> t >> tx >> ty >> tz >> qx >> qy >> qz >> qw)) continue;  // not a pose line
-    if (path.size() == max_poses) {  // full: keep every other, take every 2k-th from now on
-      std::size_t k = 0;
-      for (std::size_t j = 0; j < path.size(); j += 2) path[k++] = path[j];
-      path.resize(k);
-      stride *= 2;
-    }
-    path.emplace_back(Eigen::Quaterniond(qw, qx, qy, qz), Eigen::Vector3d(tx, ty, tz));
-  }
-  return path;
+  PreviewPath path(max_poses);
+  EF_RETURN_IF_ERROR(path.add_file(tum_file));
+  return path.poses();
 }
 
 std::size_t map_preview_bytes_for(int width, int height) {
@@ -449,10 +432,16 @@ Status write_map_preview(const std::string& path, const SurfelCloudView& cloud, 
   return (*previewer)->write(path, cloud, trajectory, options, stats);
 }
 
-PreviewPath::PreviewPath(std::size_t capacity) : capacity_(std::max<std::size_t>(2, capacity)) { poses_.reserve(capacity_); }
+void PreviewPath::reserve(std::size_t capacity) {
+  capacity_ = rounded_capacity(capacity);
+  poses_.clear();
+  poses_.reserve(capacity_);
+  stride_ = 1;
+  seen_ = 0;
+}
 
 void PreviewPath::add(const SE3& T_world_cam) {
-  if (seen_++ % stride_ != 0) return;
+  if (capacity_ == 0 || seen_++ % stride_ != 0) return;
   if (poses_.size() == capacity_) {  // full: keep every other, take every 2k-th from now on
     std::size_t k = 0;
     for (std::size_t j = 0; j < poses_.size(); j += 2) poses_[k++] = poses_[j];
@@ -460,6 +449,19 @@ void PreviewPath::add(const SE3& T_world_cam) {
     stride_ *= 2;
   }
   poses_.push_back(T_world_cam);
+}
+
+Status PreviewPath::add_file(const std::string& tum_file) {
+  std::ifstream in(tum_file);
+  if (!in) return error(ErrorCode::kNotFound, tum_file + ": cannot open the trajectory");
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream f(line);
+    double t, tx, ty, tz, qx, qy, qz, qw;
+    if (!(f >> t >> tx >> ty >> tz >> qx >> qy >> qz >> qw)) continue;  // not a pose line
+    add(SE3(Eigen::Quaterniond(qw, qx, qy, qz), Eigen::Vector3d(tx, ty, tz)));
+  }
+  return Status::success();
 }
 
 }  // namespace ef::pipeline

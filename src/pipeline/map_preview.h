@@ -20,6 +20,7 @@
 // Threads: a MapPreviewer is used by one thread at a time (run: the mapping thread).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <memory>
 #include <optional>
@@ -67,9 +68,10 @@ struct PreviewStats {
   std::array<int64_t, kNumClassesWithUnknown> class_counts{};  // surfels per class id 0..13
 };
 
-// The camera centres of a TUM trajectory file for the path drawn, at most `max_poses` of them (a
-// long run's every k-th, k doubling as the file goes on, so memory stays bounded whatever its
-// length); "# lost" lines and comments skipped. Errors: the file cannot be opened.
+// The camera centres of a TUM trajectory file for the path drawn, at most `max_poses` of them
+// (rounded up to an even number, at least 2: a long run's every k-th, k doubling as the file goes
+// on, so memory stays bounded whatever its length; PreviewPath below samples it); "# lost" lines
+// and comments skipped. Errors: the file cannot be opened.
 Result<std::vector<SE3>> read_preview_path(const std::string& tum_file, std::size_t max_poses = kPreviewPathPoses);
 
 // Bytes a previewer of panels width x height holds (depth buffers, the picture, framing samples,
@@ -111,19 +113,27 @@ class MapPreviewer {
 };
 
 // A camera path kept in memory as a run goes (for the checkpoints' previews): at most `capacity`
-// centres, the whole run evenly sampled (full: every other one is dropped and only every 2k-th
-// pose is taken from then on), as read_preview_path reads a file. Reserved at construction; add()
-// never allocates.
+// poses (rounded up to an even number, at least 2), the whole run evenly sampled (full: every
+// other one is dropped and only every 2k-th pose is taken from then on). read_preview_path reads a
+// file through one, so the path kept while mapping and the same poses read back from the
+// trajectory are the same, and a resumed run that adds its trajectory so far (add_file) goes on
+// sampling as the uninterrupted run would. Reserved by the constructor or reserve(); add() never
+// allocates. A default-constructed path holds nothing and add() ignores every pose.
 class PreviewPath {
  public:
-  explicit PreviewPath(std::size_t capacity = kPreviewPathPoses);
+  PreviewPath() = default;
+  explicit PreviewPath(std::size_t capacity) { reserve(capacity); }
+  void reserve(std::size_t capacity);  // and empties the path
   void add(const SE3& T_world_cam);
+  // add() for every pose line of a TUM trajectory file, in order. Errors: the file cannot be opened.
+  Status add_file(const std::string& tum_file);
   const std::vector<SE3>& poses() const { return poses_; }
-  static std::size_t bytes_for(std::size_t capacity) { return capacity * sizeof(SE3); }
+  static std::size_t rounded_capacity(std::size_t capacity) { return std::max<std::size_t>(2, capacity + (capacity & 1)); }
+  static std::size_t bytes_for(std::size_t capacity) { return rounded_capacity(capacity) * sizeof(SE3); }
 
  private:
   std::vector<SE3> poses_;
-  std::size_t capacity_, stride_ = 1, seen_ = 0;
+  std::size_t capacity_ = 0, stride_ = 1, seen_ = 0;
 };
 
 // The picture: (2 x width) x (height + legend) RGB. Errors: an empty map, sizes out of 64..4096.

@@ -154,7 +154,7 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
                      stats.add_counter("frames_dropped_overload"), stats.add_counter("surfels_created"),
                      stats.add_counter("surfels_removed"), stats.add_counter("surfels_evicted"),
                      stats.add_counter("surfels_refused"), stats.add_counter("cnn_frames_skipped"),
-                     stats.add_counter("realtime_frames_late")};
+                     stats.add_counter("realtime_frames_late"), stats.add_counter("checkpoint_previews_failed")};
   p->st_checkpoint_ = stats.add_stage(kStageNames[0]);
   p->st_log_map_ = stats.add_stage(kStageNames[1]);
   p->st_checkpoint_preview_ = stats.add_stage(kStageNames[2]);
@@ -162,16 +162,15 @@ Result<std::unique_ptr<RunPipeline>> RunPipeline::create(const RunConfig& config
     auto previewer = MapPreviewer::create(kPreviewWidth, kPreviewHeight);
     if (!previewer.ok()) return previewer.take_error();
     p->previewer_ = std::move(*previewer);
+    p->preview_path_.reserve(kPreviewPathPoses);
   }
 
   if (checkpoint) {
     EF_RETURN_IF_ERROR(restore_checkpoint(*checkpoint, p->mapping_->slam(), stats));
-    // The path so far, for the checkpoints' previews: the trajectory as cut back to the checkpoint.
-    if (p->previewer_ != nullptr) {
-      auto path = read_preview_path(trajectory_path);
-      if (path.ok())
-        for (const SE3& T : *path) p->preview_path_.add(T);
-    }
+    // The path so far, for the checkpoints' previews: the trajectory as cut back to the checkpoint,
+    // sampled as the uninterrupted run's path would be (a path that cannot be read stays empty: the
+    // picture is drawn without it).
+    if (p->previewer_ != nullptr) (void)p->preview_path_.add_file(trajectory_path);
     p->mapping_->resume_at(checkpoint->meta.frames);
     EF_RETURN_IF_ERROR(p->front_->resume_at(checkpoint->meta.frames));
     p->resume_warning_ = checkpoint->warning;
@@ -253,7 +252,15 @@ Status RunPipeline::checkpoint(double seconds, bool with_preview) {
   EF_RETURN_IF_ERROR(write_checkpoint(out_folder_, meta, mapping_->slam(), stats_, checkpoint_names_));
   stats_.record_ms(st_checkpoint_, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   stats_extra_[kExtraCheckpoints].value += 1;
-  if (with_preview) EF_RETURN_IF_ERROR(write_checkpoint_preview());
+  if (with_preview) {
+    // A picture that cannot be written (a permission, a file system's error) does not stop the
+    // mapping: the checkpoint is on disk; the failure is counted and the first one kept, which the
+    // run warns of (checkpoint_preview_error()). The previous preview.png stays whole.
+    if (Status s = write_checkpoint_preview(); !s.ok()) {
+      stats_.increment(c_.checkpoint_previews_failed);
+      if (!checkpoint_preview_error_) checkpoint_preview_error_ = s.error();
+    }
+  }
   if (log_ != nullptr && config_.log.map) {
     // The map into the field log too (Foxglove's 3D panel); a failure is the log's, reported at the end.
     const auto t1 = std::chrono::steady_clock::now();

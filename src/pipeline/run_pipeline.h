@@ -160,6 +160,9 @@ class RunPipeline {
   // newest checkpoint was corrupt and the one before it was used.
   const std::optional<CheckpointMeta>& resumed() const { return resumed_; }
   const std::string& resume_warning() const { return resume_warning_; }
+  // The first preview.png a checkpoint could not write (mapping goes on; stats.json counts
+  // checkpoint_previews_failed). Changes on the mapping thread: read it from the observer's calls.
+  const std::optional<Error>& checkpoint_preview_error() const { return checkpoint_preview_error_; }
   // The field log's path ("" when the run has none): log.file in the run folder, or where it
   // points; a resumed run writes a log of its own beside the first, named <stem>.resume-<frame>.mcap
   // (an MCAP file is not continued after a cut: each session's log is whole on its own).
@@ -238,7 +241,8 @@ class RunPipeline {
   // the camera's path as mapped, for the preview written with each checkpoint (the final one is
   // drawn along trajectory.txt, whose poses a loop closure corrected).
   std::unique_ptr<MapPreviewer> previewer_;
-  PreviewPath preview_path_;
+  PreviewPath preview_path_;  // reserved with the previewer (empty without it)
+  std::optional<Error> checkpoint_preview_error_;
   Status write_checkpoint_preview();
   std::string preview_title(int64_t frames) const;  // "<source>, N frames"
   int st_checkpoint_ = -1;
@@ -246,7 +250,7 @@ class RunPipeline {
   int st_log_map_ = -1;  // the map written into the field log at a checkpoint
   struct CounterIds {
     int camera_lost, corrupt_dropped, dropped_overload, surfels_created, surfels_removed, surfels_evicted,
-        surfels_refused, cnn_skipped, realtime_late;
+        surfels_refused, cnn_skipped, realtime_late, checkpoint_previews_failed;
   } c_{};
 };
 

@@ -278,6 +278,42 @@ TEST(MapPreview, ThePathKeptWhileMappingIsTheFilesPath) {
   EXPECT_GT(live.poses().back().translation().x(), 9.0);
 }
 
+// A resumed run adds its trajectory so far (the file cut back to the checkpoint) and goes on adding
+// poses as it maps: its path is the uninterrupted run's, however many times the file's part was
+// thinned. An odd capacity is rounded up, so thinning keeps the path evenly spaced; a path that
+// was never reserved keeps nothing.
+TEST(MapPreview, AResumedRunsPathIsTheUninterruptedOnes) {
+  const auto dir = test::scratch_dir("map-preview-resumed-path");
+  const auto pose = [](int i) { return SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i * 0.001, 0, 0)); };
+  constexpr int kFrames = 5000, kCut = 3777;
+  PreviewPath whole(100), resumed(100);
+  {
+    std::ofstream f(dir / "trajectory.txt");
+    f << "# timestamp tx ty tz qx qy qz qw\n";
+    for (int i = 0; i < kCut; ++i) f << i * 0.033 << " " << i * 0.001 << " 0 0 0 0 0 1\n";
+  }
+  for (int i = 0; i < kFrames; ++i) whole.add(pose(i));
+  ASSERT_TRUE(resumed.add_file((dir / "trajectory.txt").string()).ok());
+  for (int i = kCut; i < kFrames; ++i) resumed.add(pose(i));
+  ASSERT_EQ(resumed.poses().size(), whole.poses().size());
+  for (std::size_t i = 0; i < whole.poses().size(); ++i)
+    EXPECT_NEAR(resumed.poses()[i].translation().x(), whole.poses()[i].translation().x(), 1e-9) << i;
+  EXPECT_FALSE(resumed.add_file((dir / "none.txt").string()).ok());
+
+  PreviewPath odd(3);
+  for (int i = 0; i < 40; ++i) odd.add(pose(i));
+  ASSERT_GE(odd.poses().size(), 2u);
+  EXPECT_LE(odd.poses().size(), 4u);
+  const double step = odd.poses()[1].translation().x() - odd.poses()[0].translation().x();
+  for (std::size_t i = 1; i < odd.poses().size(); ++i)
+    EXPECT_NEAR(odd.poses()[i].translation().x() - odd.poses()[i - 1].translation().x(), step, 1e-9) << i;
+  EXPECT_EQ(PreviewPath::bytes_for(3), 4 * sizeof(SE3));
+
+  PreviewPath none;
+  none.add(pose(1));
+  EXPECT_TRUE(none.poses().empty());
+}
+
 TEST(MapPreview, ErrorsNameTheFault) {
   const Scene s = room();
   PreviewOptions o;

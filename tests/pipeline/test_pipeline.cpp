@@ -18,6 +18,7 @@
 #include "support/alloc_counter.h"
 #include "core/stage_stats.h"
 #include "io/mcap_reader.h"
+#include "pipeline/checkpoint.h"
 #include "pipeline/run_pipeline.h"
 #include "pipeline/run_folder.h"
 #include "io/frame_source.h"
@@ -159,7 +160,9 @@ TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
     EXPECT_GT(map[0].size(), 10'000u);
     for (int t = 1; t < 3; ++t) {
       EXPECT_EQ(trajectory[0], trajectory[t]) << t + 1 << " threads";
-      if (deterministic) EXPECT_TRUE(map[0] == map[t]) << "map.ply differs between one and " << t + 1 << " threads";
+      if (deterministic) {
+        EXPECT_TRUE(map[0] == map[t]) << "map.ply differs between one and " << t + 1 << " threads";
+      }
     }
   }
 }
@@ -351,6 +354,38 @@ TEST(Pipeline, RealtimeCountsTheFramesTheMachineReleasesLate) {
   const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
   EXPECT_NE(read_file(files.stats).find("\"realtime_frames_late\":" + std::to_string((*p)->realtime_late_frames())),
             std::string::npos);
+}
+
+// A preview.png that a checkpoint cannot write (a folder of that name in the way) does not stop the
+// mapping: every frame is mapped and every checkpoint written; the failures are counted and the
+// first kept, naming the file, for the run's one warning. The final picture's failure is then the
+// outputs' error, the other outputs complete.
+TEST(Pipeline, APreviewACheckpointCannotWriteDoesNotStopTheMapping) {
+  const auto dir = test::scratch_dir("pipeline-preview-blocked");
+  constexpr int64_t kFrames = 50;
+  LoopSource paced(12, kFrames, /*live=*/false, std::nullopt, std::chrono::milliseconds(10));  // 0.5 s
+  StageStats stats;
+  pipeline::RunConfig c = small_run(dir, tiny_model(dir), 2);
+  c.output.checkpoint_seconds = 0.1;
+  auto p = pipeline::RunPipeline::create(c, paced, stats);
+  ASSERT_TRUE(p.ok()) << to_string(p.error());
+  std::filesystem::create_directories(dir / "preview.png" / "in-the-way");
+  pipeline::RunObserver none;
+  const pipeline::RunOutcome outcome = (*p)->run(none);
+  ASSERT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
+  EXPECT_EQ(outcome.frames, kFrames);
+  const uint64_t failed = stats.counter(stats.counter_id("checkpoint_previews_failed"));
+  EXPECT_GE(failed, 1u);
+  EXPECT_TRUE(std::filesystem::exists(dir / pipeline::kCheckpointFile));
+  ASSERT_TRUE((*p)->checkpoint_preview_error().has_value());
+  EXPECT_NE((*p)->checkpoint_preview_error()->message.find("preview.png"), std::string::npos)
+      << (*p)->checkpoint_preview_error()->message;
+  const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
+  EXPECT_TRUE(files.wrote_trajectory && files.wrote_map && files.wrote_stats);
+  EXPECT_FALSE(files.wrote_preview);
+  ASSERT_FALSE(files.errors.empty());
+  EXPECT_NE(files.errors.front().message.find("preview.png"), std::string::npos) << files.errors.front().message;
+  EXPECT_NE(read_file(files.stats).find("\"checkpoint_previews_failed\":" + std::to_string(failed)), std::string::npos);
 }
 
 TEST(Pipeline, BadCoreIsAnErrorNamingTheKey) {
