@@ -3,7 +3,8 @@
 // Per variant: R timed runs, each repeating the kernel until it has taken at least T ms; prints the
 // median time per call and the throughput (depth: GB/s of uint16 input + float output; dot: GOP/s,
 // counting one multiply and one add per element pair; normal equations: million rows/s of
-// 8-float Gauss-Newton rows). Pin the CPU and close other work first.
+// 8-float Gauss-Newton rows; fusion gates: million pixels/s of one 320x240 frame). Pin the CPU and close
+// other work first.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -15,6 +16,7 @@
 
 #include "kernels/depth_u16_to_metres_variants.h"
 #include "kernels/dot_i8_variants.h"
+#include "kernels/fusion_gates_variants.h"
 #include "kernels/reduce_normal_equations_variants.h"
 #include "platform/cpu/cpu_features.h"
 
@@ -106,6 +108,65 @@ int main(int argc, char** argv) {
       const double s = median_seconds_per_call([&] { v.fn(rows.data(), n, n, &ne); g_sink_f = ne.upper[0]; }, reps,
                                                min_ms);
       std::printf("  %-34s %9.2f us  %7.1f Mrows/s\n", v.name, s * 1e6, static_cast<double>(n) / s * 1e-6);
+    }
+  }
+  // Fusion's static gates over one 320x240 frame (rows 1..238, pixels 1..318): index rows with a
+  // surfel in two of three cells near each pixel's depth.
+  {
+    constexpr int kW = 320, kH = 240;
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<int32_t> ids(kW * kH);
+    std::vector<float> depth(kW * kH), surface(4 * kW * kH), px(7 * kW);
+    for (int i = 0; i < kW * kH; ++i) {
+      ids[i] = rng() % 3 == 0 ? -1 : static_cast<int32_t>(rng() % 300000);
+      depth[i] = 2.0f + 0.05f * u(rng);
+      surface[4 * i] = 0.3f * u(rng);
+      surface[4 * i + 1] = 0.3f * u(rng);
+      surface[4 * i + 2] = -0.9f;
+      surface[4 * i + 3] = 10.0f;
+    }
+    for (int x = 0; x < kW; ++x) {
+      px[x] = static_cast<float>(x);      // xi
+      px[kW + x] = 0.0f;                  // yi (set per row)
+      px[2 * kW + x] = 2.0f;              // z
+      px[3 * kW + x] = 0.042f;            // gate
+      px[4 * kW + x] = 0.1f * u(rng);     // normal
+      px[5 * kW + x] = 0.1f * u(rng);
+      px[6 * kW + x] = -0.99f;
+    }
+    FusionGateRow row;
+    row.xi = px.data();
+    row.yi = px.data() + kW;
+    row.z = px.data() + 2 * kW;
+    row.gate = px.data() + 3 * kW;
+    row.nwx = px.data() + 4 * kW;
+    row.nwy = px.data() + 5 * kW;
+    row.nwz = px.data() + 6 * kW;
+    std::vector<uint32_t> code(kW);
+    std::printf("\nfusion_gates, one %dx%d frame\n", kW, kH);
+    for (const auto& v : kFusionGatesVariants) {
+      if (!isa_available(v.isa, cpu)) {
+        std::printf("  %-34s skipped (CPU lacks %s)\n", v.name, isa_name(v.isa));
+        continue;
+      }
+      const double s = median_seconds_per_call(
+          [&] {
+            for (int y = 1; y < kH - 1; ++y) {
+              FusionGateParams p;
+              for (int k = 0; k < 3; ++k) {
+                p.id[k] = ids.data() + (y + k - 1) * kW;
+                p.depth[k] = depth.data() + (y + k - 1) * kW;
+                p.surface[k] = surface.data() + 4 * (y + k - 1) * kW;
+              }
+              p.pool_size = 300000;
+              p.y = y;
+              std::fill(px.begin() + kW, px.begin() + 2 * kW, static_cast<float>(y));
+              v.fn(p, row, 1, kW - 1, code.data());
+              g_sink = static_cast<int32_t>(code[y]);
+            }
+          },
+          reps, min_ms);
+      std::printf("  %-34s %9.1f us  %7.1f Mpixels/s\n", v.name, s * 1e6, (kW - 2) * (kH - 2) / s * 1e-6);
     }
   }
   return 0;

@@ -39,6 +39,8 @@ struct IndexSurface {
   float nx, ny, nz;  // unit normal, world frame
   float confidence;  // SurfelPool::confidence (dimensionless accumulated weight)
 };
+// kernels/fusion_gates reads a row of surfaces as 4 floats per index pixel.
+static_assert(sizeof(IndexSurface) == 4 * sizeof(float), "IndexSurface: four floats, no padding");
 
 struct IndexMap {
   int scale = 1;             // index pixels per working pixel along each axis (1..kMaxIndexScale)

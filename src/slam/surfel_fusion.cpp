@@ -10,6 +10,7 @@
 #include <functional>
 #include <sstream>
 
+#include "kernels/fusion_gates.h"
 #include "slam/preprocess.h"
 
 namespace ef::slam {
@@ -77,7 +78,8 @@ std::string FusionOptions::describe() const {
     << "merge_normal_deg " << merge_normal_deg << " deg\n"
     << "merge_max_radius_ratio " << merge_max_radius_ratio << "\n"
     << "fuse_raw_depth " << (fuse_raw_depth ? "true" : "false") << "  # positions from raw (true) or filtered depth\n"
-    << "normal_level " << normal_level << "  # pyramid level of the fused normals\n";
+    << "normal_level " << normal_level << "  # pyramid level of the fused normals\n"
+    << "row_gates " << (row_gates ? "true" : "false") << "  # candidates' static gates a row at a time\n";
   return s.str();
 }
 
@@ -129,8 +131,8 @@ std::size_t SurfelFusion::bytes_for(int width, int height, int index_map_scale, 
       seen_list_capacity(pixels, index_map_scale, pool_capacity) + options.lifetime_sweep_per_frame;
   // cell_state_ (a byte per index pixel), seen_ (int32 per entry), unmatched_ (int32) and weight_
   // (float) per pixel, sweep_decided_ (a bit per sweep id, in 64-bit words), row_ (kRowFields floats
-  // per pixel of a row).
-  return static_cast<std::size_t>(cells + (seen_entries + 2 * pixels + int64_t{kRowFields} * width) * 4 +
+  // per pixel of a row) and gate_code_ (uint32 per pixel of a row).
+  return static_cast<std::size_t>(cells + (seen_entries + 2 * pixels + int64_t{kRowFields + 1} * width) * 4 +
                                   sweep_words(options.lifetime_sweep_per_frame) * 8);
 }
 
@@ -161,6 +163,7 @@ Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_m
   f.sweep_decided_.reset(new uint64_t[static_cast<std::size_t>(sweep_words(options.lifetime_sweep_per_frame))]());
   f.seen_.reset(new int32_t[static_cast<std::size_t>(seen_entries)]);
   f.row_.reset(new float[static_cast<std::size_t>(kRowFields) * static_cast<std::size_t>(working.width)]());
+  f.gate_code_.reset(new uint32_t[static_cast<std::size_t>(working.width)]());
   f.unmatched_.reset(new int32_t[static_cast<std::size_t>(pixels)]);
   f.weight_.allocate(working.width, working.height);
   f.bytes_ = bytes_for(working.width, working.height, index_map_scale, pool_capacity, options);
@@ -566,6 +569,107 @@ void SurfelFusion::scan_unit_window(const FrameContext& fc, const IndexMap& inde
   }
 }
 
+// scan_unit_window at margin 1 for a pixel that projects into its own index pixel, with the index
+// map's tests of its 3x3 cells precomputed for the whole row (kernels/fusion_gates.h: `code`): the
+// same visits in the same order, the same counts, flags and choice. What the row pass cannot know is
+// this frame's own state: cells whose surfel was merged (no candidate) or updated (gated on the
+// pool's values, as visit_cell does); those are looked at here, one cell at a time. Measured on
+// 7-Scenes (bench_slam_stages, side by side): see docs/results.md, issue 31.
+void SurfelFusion::scan_gated(const IndexMap& index, const SurfelPool& pool, const PixelContext& px, uint32_t code,
+                              WindowScan* ws) {
+  using kernels::kGateOwnCell;
+  const uint32_t occupied = code & kernels::kGateCells;
+  if (occupied == 0) return;  // no candidate: the pixel is unmatched (empty)
+  // Everything in locals: the flags are bytes, and a store through a byte pointer may alias anything,
+  // which would make the compiler reload every member and counter after each one.
+  uint8_t* const state = cell_state_.get();
+  int32_t* const seen = seen_.get();
+  int64_t seen_count = seen_count_;
+  const int64_t seen_capacity = seen_capacity_;
+  const int32_t* const ids = index.id.data();
+  const IndexSurface* const surfaces = index.surface.data();
+  const float* const pnx = pool.nx();
+  const float* const pny = pool.ny();
+  const float* const pnz = pool.nz();
+  const float* const pconf = pool.confidence();
+  const float nwx = px.n_w.x(), nwy = px.n_w.y(), nwz = px.n_w.z(), xi = px.xi, yi = px.yi;
+  const float cos_gate = cos_normal_gate_;
+  const int x = px.x, y = px.y, iw = index.id.width();
+  const int32_t own = y * iw + x;
+  const uint32_t depth_code = code >> kernels::kGateDepthShift, normal_code = code >> kernels::kGateNormalShift;
+  int n_candidates = 0, n_depth_ok = 0, n_gated = 0, best = -1;
+  bool best_updated = false;
+  float best_d2 = 0, best_conf = 0;
+  WindowScan::Gated* const gated = ws->gated;
+  // see(): the first visit of a cell this frame lists it.
+  const auto visit = [&](int32_t cell) {
+    const uint8_t f = state[cell];
+    if (!(f & kSeen)) {
+      state[cell] = static_cast<uint8_t>(f | kSeen);
+      if (seen_count < seen_capacity) seen[seen_count++] = cell;
+    }
+    return f;
+  };
+  // An updated surfel is gated on its normal as fused this frame (visit_cell).
+  const auto normal_ok = [&](int32_t cell, bool upd, bool static_ok) {
+    if (!upd) return static_ok;
+    const int32_t id = ids[cell];
+    const float cos_n = pnx[id] * nwx + pny[id] * nwy + pnz[id] * nwz;
+    return !(cos_n < cos_gate);
+  };
+  const auto choose = [&](int k, int32_t cell, bool upd) {
+    const int32_t id = ids[cell];
+    const int bx = x + k % 3 - 1, by = y + k / 3 - 1;
+    const float ex = static_cast<float>(bx) - xi, ey = static_cast<float>(by) - yi;
+    const float d2 = ex * ex + ey * ey;
+    const float conf = upd ? pconf[id] : surfaces[cell].confidence;
+    if (candidate_better(upd, d2, conf, best >= 0, best_updated, best_d2, best_conf)) {
+      best = n_gated;
+      best_updated = upd;
+      best_d2 = d2;
+      best_conf = conf;
+    }
+    gated[n_gated++] = WindowScan::Gated{id, bx, by, cell};
+  };
+  bool own_passes = false;
+  if (occupied & kGateOwnCell) {  // the own cell first
+    const uint8_t f = visit(own);
+    if (!(f & kMerged)) {
+      ++n_candidates;
+      if (code & kernels::kGateOwnViolated) {
+        state[own] = static_cast<uint8_t>(state[own] | kViolated);
+      } else if (depth_code & kGateOwnCell) {
+        ++n_depth_ok;
+        const bool upd = (f & kUpdated) != 0;
+        own_passes = normal_ok(own, upd, (normal_code & kGateOwnCell) != 0);
+        if (own_passes) choose(4, own, upd);
+      }
+    }
+  }
+  if (!own_passes) {  // the margin only when the own cell has no passing candidate
+    const int32_t offset[9] = {-iw - 1, -iw, -iw + 1, -1, 0, 1, iw - 1, iw, iw + 1};  // cell k - own
+    for (uint32_t bits = occupied & ~kGateOwnCell; bits != 0; bits &= bits - 1) {
+      const int k = __builtin_ctz(bits);
+      const int32_t cell = own + offset[k];
+      const uint8_t f = visit(cell);
+      if (f & kMerged) continue;
+      ++n_candidates;
+      if (!((depth_code >> k) & 1u)) continue;
+      ++n_depth_ok;
+      const bool upd = (f & kUpdated) != 0;
+      if (normal_ok(cell, upd, ((normal_code >> k) & 1u) != 0)) choose(k, cell, upd);
+    }
+  }
+  seen_count_ = seen_count;
+  ws->n_candidates = n_candidates;
+  ws->n_depth_ok = n_depth_ok;
+  ws->n_gated = n_gated;
+  ws->best = best;
+  ws->best_updated = best_updated;
+  ws->best_d2 = best_d2;
+  ws->best_conf = best_conf;
+}
+
 // Duplicates among one pixel's gated candidates merge into the more confident of each pair, starting
 // from the surfel the pixel was fused into.
 void SurfelFusion::merge_duplicates(SurfelPool& pool, const WindowScan& ws, float z, FusionStats& st) {
@@ -595,11 +699,43 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
   WindowScan ws;
   const float* r = row_.get();
   const auto field = [&](int f, int x) { return r[f * w + x]; };
+  // The row pass of the gates (kernels/fusion_gates.h) at index scale 1 and margin 1 (the defaults),
+  // for the pixels whose 3x3 cells lie inside the map; the border pixels take scan_window.
+  const bool gated_rows = options_.row_gates && fc.has_index && scale_ == 1 && options_.search_margin_index_px == 1 &&
+                          w >= 3 && h >= 3;
+  kernels::FusionGateParams gp;
+  gp.pool_size = static_cast<int32_t>(fc.pool_size);
+  gp.neg_free_space_factor = -options_.free_space_gate_factor;
+  gp.cos_normal_gate = cos_normal_gate_;
+  kernels::FusionGateRow gr;
+  gr.xi = r + kRowXi * w;
+  gr.yi = r + kRowYi * w;
+  gr.z = r + kRowPiz * w;
+  gr.gate = r + kRowGate * w;
+  gr.nwx = r + kRowNwx * w;
+  gr.nwy = r + kRowNwy * w;
+  gr.nwz = r + kRowNwz * w;
+  uint32_t* code = gate_code_.get();
+  // Counters in locals, written back at the end: the state flags are bytes, whose stores may alias
+  // anything, so a counter kept in `st` would be reloaded and stored again around every one.
+  int64_t valid = 0, unmatched_empty = 0, unmatched_depth = 0, unmatched_normal = 0, covered = 0, fused = 0;
+  int64_t confirmed = 0, row_gated = 0, n_unmatched = unmatched_count_;
+  int32_t* const unmatched = unmatched_.get();
   for (int y = 0; y < h; ++y) {
     prepare_row(fc, y);
+    const bool gated_row = gated_rows && y >= 1 && y < h - 1;
+    if (gated_row) {
+      gp.y = y;
+      for (int k = 0; k < 3; ++k) {
+        gp.id[k] = &index.id(0, y + k - 1);
+        gp.depth[k] = &index.depth(0, y + k - 1);
+        gp.surface[k] = &index.surface(0, y + k - 1).nx;
+      }
+      kernels::fusion_gates(gp, gr, 1, w - 1, code);
+    }
     for (int x = 0; x < w; ++x) {
       if (field(kRowValid, x) == 0.0f) continue;
-      ++st.valid_pixels;
+      ++valid;
       const int32_t pixel_index = y * w + x;
       px.x = x;
       px.y = y;
@@ -608,8 +744,8 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
       px.n_w = Eigen::Vector3f(field(kRowNwx, x), field(kRowNwy, x), field(kRowNwz, x));
       px.p_i = Eigen::Vector3f(field(kRowPix, x), field(kRowPiy, x), field(kRowPiz, x));
       if (!fc.has_index || !(px.p_i.z() > 0.0f)) {
-        unmatched_[unmatched_count_++] = pixel_index;
-        ++st.unmatched_empty;
+        unmatched[n_unmatched++] = pixel_index;
+        ++unmatched_empty;
         continue;
       }
       px.xi = field(kRowXi, x);
@@ -617,26 +753,41 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
       px.gate = field(kRowGate, x);
       ws.best = -1;
       ws.n_gated = ws.n_candidates = ws.n_depth_ok = 0;
-      scan_window(fc, index, pool, px, &ws, st);
+      const bool fast = gated_row && x >= 1 && x < w - 1 &&
+                        (code[x] & (kernels::kGateIdentity | kernels::kGateInvalid)) == kernels::kGateIdentity;
+      if (fast) {
+        scan_gated(index, pool, px, code[x], &ws);
+        ++row_gated;
+      } else {
+        scan_window(fc, index, pool, px, &ws, st);
+      }
       if (ws.best < 0) {
-        unmatched_[unmatched_count_++] = pixel_index;
-        ++(ws.n_candidates == 0 ? st.unmatched_empty : ws.n_depth_ok == 0 ? st.unmatched_depth : st.unmatched_normal);
+        unmatched[n_unmatched++] = pixel_index;
+        ++(ws.n_candidates == 0 ? unmatched_empty : ws.n_depth_ok == 0 ? unmatched_depth : unmatched_normal);
         continue;
       }
       if (ws.best_updated) {
-        ++st.covered_pixels;
+        ++covered;
         continue;
       }
       const WindowScan::Gated& best = ws.gated[ws.best];
       const fusion_math::Sample sample =
           sample_from(px, Eigen::Vector3f(field(kRowPwx, x), field(kRowPwy, x), field(kRowPwz, x)), field(kRowRadius, x));
-      if (!fusion_math::fuse_sample(pool, best.id, sample, options_.max_radius_growth, frame_index))
-        ++st.confirmed_only;
+      if (!fusion_math::fuse_sample(pool, best.id, sample, options_.max_radius_growth, frame_index)) ++confirmed;
       set_flag(best.cell, kUpdated);
-      ++st.fused_pixels;
+      ++fused;
       merge_duplicates(pool, ws, px.p_i.z(), st);
     }
   }
+  unmatched_count_ = n_unmatched;
+  st.valid_pixels += valid;
+  st.unmatched_empty += unmatched_empty;
+  st.unmatched_depth += unmatched_depth;
+  st.unmatched_normal += unmatched_normal;
+  st.covered_pixels += covered;
+  st.fused_pixels += fused;
+  st.confirmed_only += confirmed;
+  st.row_gated_pixels += row_gated;
 }
 
 // Step 3: decide over the seen surfels and one sweep's worth of ids, then swap-remove from high ids

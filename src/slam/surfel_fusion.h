@@ -55,7 +55,8 @@
 // Memory: create() allocates everything, bytes(): 1 per index pixel (the state of the current
 // frame), 4 per entry of the list of seen surfels (min(capacity, index pixels) plus
 // lifetime_sweep_per_frame), one bit per id of the lifetime sweep, 8 per working pixel (unmatched
-// pixels, confidence weights), 96 per working column (one row of measurements); 1.1 MB at 320x240
+// pixels, confidence weights), 100 per working column (one row of measurements and their gate
+// codes); 1.1 MB at 320x240
 // and index map scale 1 with the default sweep, whatever the pool's capacity. fuse() never touches
 // the heap.
 // Threads: one SurfelFusion per mapping thread; fuse() is not reentrant.
@@ -170,6 +171,16 @@ struct FusionOptions {
   // excludes depth edges). The price: creases are blurred over 2 pixels.
   int normal_level = 1;
 
+  // At index-map scale 1 and search_margin_index_px 1 (the defaults), the index map's tests of each
+  // pixel's 3x3 candidates (occupancy, depth and free-space gates, the normal gate on the map's copy
+  // of the normal) are evaluated for a whole row at once by kernels/fusion_gates (SIMD), and only
+  // this frame's own state (surfels already updated or merged) is tested per candidate. false: every
+  // candidate of every pixel is tested on its own (visit_cell). The results are the same either way,
+  // bit for bit (tests/slam/test_surfel_fusion.cpp compares them); true is faster (docs/results.md,
+  // issue 31). Pixels whose projection leaves their own index pixel (an index map rendered at another
+  // pose) or that lie on the image border take the per-candidate path in both cases.
+  bool row_gates = true;
+
   // An error naming the first field out of range.
   Status validate() const;
   // One line per field with its unit, for logs.
@@ -195,6 +206,7 @@ struct FusionStats {
   int64_t merged = 0;           // surfels merged into another (and removed)
   int64_t seen_surfels = 0;     // distinct surfels found in the candidate windows
   int64_t invalid_index_ids = 0;  // index map ids >= pool size (a stale map: should stay 0)
+  int64_t row_gated_pixels = 0;   // of valid_pixels, associated through the row pass (row_gates)
   double associate_ms = 0;      // steps 1-2
   double clean_ms = 0;          // step 3
   double create_ms = 0;         // step 4
@@ -373,6 +385,8 @@ class SurfelFusion {
                    WindowScan* ws, FusionStats& st);
   void scan_unit_window(const FrameContext& fc, const IndexMap& index, const SurfelPool& pool, const PixelContext& px,
                         WindowScan* ws, FusionStats& st);
+  void scan_gated(const IndexMap& index, const SurfelPool& pool, const PixelContext& px, uint32_t code,
+                  WindowScan* ws);
   void merge_duplicates(SurfelPool& pool, const WindowScan& ws, float z, FusionStats& st);
   void clean(const IndexMap& index, SurfelPool& pool, int32_t frame_index, FusionStats& st);
   void create_new(const FrameContext& fc, SurfelPool& pool, int32_t frame_index, FusionStats& st);
@@ -413,6 +427,8 @@ class SurfelFusion {
   };
   std::unique_ptr<float[]> row_;
   float* row_field(int field) const { return row_.get() + static_cast<std::size_t>(field) * K_.width; }
+  // The static gates of each pixel of the current row (kernels/fusion_gates.h), index map scale 1.
+  std::unique_ptr<uint32_t[]> gate_code_;
   std::unique_ptr<int32_t[]> unmatched_;   // pixel indices y * width + x of unmatched valid pixels
   int64_t unmatched_count_ = 0;
   Image<float> weight_;                    // confidence weight per working pixel

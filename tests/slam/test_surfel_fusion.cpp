@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <memory>
 #include <vector>
@@ -889,6 +890,86 @@ TEST(SurfelFusion, ZeroHeapAllocationsPerFuseAfterWarmUp) {
 }
 
 // ---- a sequence ----
+
+// The row pass of the gates (FusionOptions::row_gates, kernels/fusion_gates) against every candidate
+// tested on its own: the same pool, column for column and bit for bit, and the same counts, frame
+// after frame of a noisy sequence at index scale 1 (the SLAM's default), with index maps at each
+// frame's own pose (where the row pass applies: most pixels take it) and, every fourth frame, at
+// the previous pose (where it does not). One frame's depth is stretched by 15%, so that the map lies
+// in front of what the sensor sees (free-space violations). (At index scale 1 no two candidates are
+// within merge_max_distance_px: nothing merges.)
+TEST(SurfelFusion, RowGatesGiveTheSameMapAsTestingEachCandidate) {
+#ifdef NDEBUG
+  constexpr int kFrames = 20;
+#else
+  constexpr int kFrames = 6;
+#endif
+  auto src = test::open_synth(kOfficeNoisy);
+  const Intrinsics K = src->info().intrinsics;
+  auto pre_r = Preprocessor::create(K);
+  ASSERT_TRUE(pre_r.ok());
+  Preprocessor& pre = *pre_r;
+  FusionOptions cell_by_cell;
+  cell_by_cell.row_gates = false;
+  SurfelPool pools[2] = {make_pool(), make_pool()};
+  SurfelFusion fusions[2] = {SurfelFusion::create(K, 1, 1'000'000, FusionOptions{}).value(),
+                             SurfelFusion::create(K, 1, 1'000'000, cell_by_cell).value()};
+  Frame f;
+  f.allocate(K.width, K.height, true);
+  int64_t violated = 0, covered = 0;
+  for (int i = 0; i < kFrames; ++i) {
+    ASSERT_TRUE(src->render(i, f).ok());
+    if (i == kFrames / 2)
+      for (std::size_t p = 0; p < f.depth.size(); ++p) f.depth.data()[p] *= 1.15f;
+    ASSERT_TRUE(pre.process(f).ok());
+    FusionStats st[2];
+    for (int k = 0; k < 2; ++k) {
+      const SE3& at = src->poses()[i % 4 == 3 ? i - 1 : i];
+      const IndexMap index = i == 0 ? IndexMap{} : splat_index(pools[k], K, 1, at);
+      ASSERT_TRUE(fusions[k].fuse(pre, f.color.view(), src->poses()[i], index, i, &pools[k], &st[k]).ok());
+    }
+    const SurfelPool& a = pools[0];
+    const SurfelPool& b = pools[1];
+    ASSERT_EQ(a.size(), b.size()) << "frame " << i;
+    const auto same = [&](const auto* x, const auto* y, const char* column) {
+      EXPECT_EQ(std::memcmp(x, y, static_cast<std::size_t>(a.size()) * sizeof(*x)), 0) << column << " frame " << i;
+    };
+    same(a.x(), b.x(), "x");
+    same(a.y(), b.y(), "y");
+    same(a.z(), b.z(), "z");
+    same(a.nx(), b.nx(), "nx");
+    same(a.ny(), b.ny(), "ny");
+    same(a.nz(), b.nz(), "nz");
+    same(a.radius(), b.radius(), "radius");
+    same(a.confidence(), b.confidence(), "confidence");
+    same(a.color(), b.color(), "color");
+    same(a.init_time(), b.init_time(), "init_time");
+    same(a.last_seen(), b.last_seen(), "last_seen");
+    EXPECT_EQ(st[0].valid_pixels, st[1].valid_pixels);
+    EXPECT_EQ(st[0].fused_pixels, st[1].fused_pixels);
+    EXPECT_EQ(st[0].confirmed_only, st[1].confirmed_only);
+    EXPECT_EQ(st[0].covered_pixels, st[1].covered_pixels);
+    EXPECT_EQ(st[0].new_surfels, st[1].new_surfels);
+    EXPECT_EQ(st[0].unmatched_empty, st[1].unmatched_empty);
+    EXPECT_EQ(st[0].unmatched_depth, st[1].unmatched_depth);
+    EXPECT_EQ(st[0].unmatched_normal, st[1].unmatched_normal);
+    EXPECT_EQ(st[0].removed_stale, st[1].removed_stale);
+    EXPECT_EQ(st[0].removed_free_space, st[1].removed_free_space);
+    EXPECT_EQ(st[0].demoted_free_space, st[1].demoted_free_space);
+    EXPECT_EQ(st[0].merged, st[1].merged);
+    EXPECT_EQ(st[0].seen_surfels, st[1].seen_surfels);
+    EXPECT_EQ(st[1].row_gated_pixels, 0);
+    if (i > 0 && i % 4 != 3) {
+      EXPECT_GT(st[0].row_gated_pixels, 0.95 * static_cast<double>(st[0].valid_pixels)) << "frame " << i;
+    }
+    violated += st[0].removed_free_space + st[0].demoted_free_space;
+    covered += st[0].covered_pixels;
+  }
+  // The sequence reaches the paths that depend on this frame's own state: free-space violations,
+  // and pixels whose only passing candidates were updated already (covered).
+  EXPECT_GT(violated, 0);
+  EXPECT_GT(covered, 0);
+}
 
 TEST(SurfelFusion, SequenceWithTruePoses) {
   // 30 noisy frames of the office with their true poses; index map at the previous frame's pose as in
