@@ -3,8 +3,8 @@
 // Per variant: R timed runs, each repeating the kernel until it has taken at least T ms; prints the
 // median time per call and the throughput (depth: GB/s of uint16 input + float output; dot: GOP/s,
 // counting one multiply and one add per element pair; normal equations: million rows/s of
-// 8-float Gauss-Newton rows; fusion gates: million pixels/s of one 320x240 frame). Pin the CPU and close
-// other work first.
+// 8-float Gauss-Newton rows; fusion gates and the bilateral filter: million pixels/s of one 320x240
+// frame). Pin the CPU and close other work first.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -14,6 +14,7 @@
 #include <random>
 #include <vector>
 
+#include "kernels/bilateral_row_variants.h"
 #include "kernels/depth_u16_to_metres_variants.h"
 #include "kernels/dot_i8_variants.h"
 #include "kernels/fusion_gates_variants.h"
@@ -167,6 +168,42 @@ int main(int argc, char** argv) {
           },
           reps, min_ms);
       std::printf("  %-34s %9.1f us  %7.1f Mpixels/s\n", v.name, s * 1e6, (kW - 2) * (kH - 2) / s * 1e-6);
+    }
+  }
+  // The depth bilateral filter over one 320x240 frame, radius 2 (the default): a noisy plane.
+  {
+    constexpr int kW = 320, kH = 240, kR = 2;
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> padded((kW + 2 * kR) * (kH + 2 * kR), 1.0e6f), raw(kW * kH), out(kW * kH), spatial(25);
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) {
+        const float d = 2.0f + 0.01f * u(rng);
+        raw[y * kW + x] = d;
+        padded[(y + kR) * (kW + 2 * kR) + x + kR] = d;
+      }
+    for (int k = 0; k < 25; ++k) spatial[k] = 0.5f + 0.02f * static_cast<float>(k);
+    std::printf("\nbilateral_row, one %dx%d frame, radius %d\n", kW, kH, kR);
+    for (const auto& v : kBilateralRowVariants) {
+      if (!isa_available(v.isa, cpu)) {
+        std::printf("  %-34s skipped (CPU lacks %s)\n", v.name, isa_name(v.isa));
+        continue;
+      }
+      const double s = median_seconds_per_call(
+          [&] {
+            const float* rows[2 * kR + 1];
+            BilateralRow b;
+            b.rows = rows;
+            b.spatial = spatial.data();
+            b.radius = kR;
+            b.k8 = 1.0f / (16.0f * 0.03f * 0.03f);
+            for (int y = 0; y < kH; ++y) {
+              for (int k = 0; k <= 2 * kR; ++k) rows[k] = padded.data() + (y + k) * (kW + 2 * kR);
+              b.raw = raw.data() + y * kW;
+              v.fn(b, kW, out.data() + y * kW);
+            }
+          },
+          reps, min_ms);
+      std::printf("  %-34s %9.1f us  %7.1f Mpixels/s\n", v.name, s * 1e6, kW * kH / s * 1e-6);
     }
   }
   return 0;

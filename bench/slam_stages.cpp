@@ -31,6 +31,7 @@
 #include "core/frame.h"
 #include "eval/trajectory_eval.h"
 #include "io/frame_resample.h"
+#include "kernels/bilateral_row_variants.h"
 #include "kernels/depth_u16_to_metres_variants.h"
 #include "kernels/fusion_gates_variants.h"
 #include "kernels/reduce_normal_equations_variants.h"
@@ -171,10 +172,11 @@ int main(int argc, char** argv) {
 
   std::printf("bench_slam_stages: one thread (SurfelSlam is single threaded)\n");
   std::printf("CPU: %s\n", cpu_model().c_str());
-  std::printf("ISA: %s (detected: %s); kernels: %s, %s, %s, %s, %s\n", ef::cpu_features().describe().c_str(),
+  std::printf("ISA: %s (detected: %s); kernels: %s, %s, %s, %s, %s, %s\n", ef::cpu_features().describe().c_str(),
               ef::detected_cpu_features().describe().c_str(), ef::kernels::track_rows_selected(),
               ef::kernels::reduce_normal_equations_selected(), ef::kernels::splat_disc_selected(),
-              ef::kernels::depth_u16_to_metres_selected(), ef::kernels::fusion_gates_selected());
+              ef::kernels::depth_u16_to_metres_selected(), ef::kernels::fusion_gates_selected(),
+              ef::kernels::bilateral_row_selected());
   std::printf("source: %s (%dx%d, %s frames), working resolution %dx%d (fx %.1f), warm-up %d frames, fusion "
               "associating at the %s pose\n",
               uri.c_str(), info.intrinsics.width, info.intrinsics.height,

@@ -2,6 +2,7 @@
 #include "slam/preprocess.h"
 
 #include "core/stopwatch.h"
+#include "kernels/bilateral_row.h"
 #include "slam/depth_pyramid.h"
 
 #include <algorithm>
@@ -72,7 +73,7 @@ std::string PreprocessOptions::describe() const {
 
 std::size_t Preprocessor::bytes() const {
   const auto b = [](const auto& image) { return image.size() * sizeof(*image.data()); };
-  std::size_t total = b(raw_depth_) + b(padded_) + b(spatial_weights_) + b(row_weight_) + b(row_sum_);
+  std::size_t total = b(raw_depth_) + b(padded_) + b(spatial_weights_);
   for (int l = 0; l < options_.levels; ++l) {
     const PyramidLevel& p = levels_[l];
     total += b(p.depth) + b(p.vertex) + b(p.normal) + b(p.intensity) + b(p.grad_x) + b(p.grad_y);
@@ -122,8 +123,6 @@ Result<Preprocessor> Preprocessor::create(const Intrinsics& working, const Prepr
   for (int dy = -r; dy <= r; ++dy)
     for (int dx = -r; dx <= r; ++dx)
       p.spatial_weights_(dx + r, dy + r) = std::exp(-static_cast<float>(dx * dx + dy * dy) * inv_2ss);
-  p.row_weight_.allocate(working.width, 1);
-  p.row_sum_.allocate(working.width, 1);
   p.range_scale_ = 1.0f / (2.0f * options.bilateral_sigma_depth_m * options.bilateral_sigma_depth_m);
   return p;
 }
@@ -174,10 +173,10 @@ void Preprocessor::cut_off_and_pad(ImageView<const float> depth) {
 
 // KinectFusion's bilateral filter (Newcombe et al. 2011, eq. 2; Tomasi and Manduchi 1998): for a
 // valid centre depth d_c, D(u) = sum_q Ns(|u - q|) Nr(d_q - d_c) d_q / sum_q Ns Nr over the valid
-// neighbours q of the window; an invalid centre stays invalid (holes are not filled). Written as one
-// pass per window offset over a whole row, into row accumulators, so the inner loop is branch-free
-// and the compiler vectorises it (SSE4.1 / NEON baseline). Invalid pixels and the border of
-// `padded_` hold kInvalidDepthSentinel, whose range weight is exactly 0: no masks, no bounds checks.
+// neighbours q of the window; an invalid centre stays invalid (holes are not filled). One row at a
+// time by kernels/bilateral_row (SIMD across the pixels of the row: SSE4.1 / AVX2 / AVX-512 / NEON,
+// bit-identical to its scalar twin). Invalid pixels and the border of `padded_` hold
+// kInvalidDepthSentinel, whose range weight is exactly 0: no masks, no bounds checks.
 // The Gaussian range kernel Nr is evaluated as (1 + t/8)^-8, t = (d_q - d_c)^2 / (2 sigma_depth^2).
 void Preprocessor::bilateral() {
   const int r = options_.bilateral_radius_px;
@@ -187,32 +186,17 @@ void Preprocessor::bilateral() {
     out.copy_from(raw_depth());
     return;
   }
-  float* sw = row_weight_.data();
-  float* swd = row_sum_.data();
   const float k8 = range_scale_ * (1.0f / 8.0f);  // u = 1 + t / 8
+  const float* rows[2 * 8 + 1];                     // bilateral_radius_px is at most 8
+  kernels::BilateralRow row;
+  row.rows = rows;
+  row.spatial = spatial_weights_.data();
+  row.radius = r;
+  row.k8 = k8;
   for (int y = 0; y < h; ++y) {
-    const float* centre = &padded_(r, y + r);
-    for (int x = 0; x < w; ++x) sw[x] = swd[x] = 0.0f;
-    for (int dy = -r; dy <= r; ++dy) {
-      for (int dx = -r; dx <= r; ++dx) {
-        const float ws = spatial_weights_(dx + r, dy + r);
-        const float* nb = &padded_(r + dx, y + r + dy);
-        for (int x = 0; x < w; ++x) {
-          const float dn = nb[x];
-          const float diff = dn - centre[x];
-          const float wgt = ws * inverse_eighth_power(1.0f + diff * diff * k8);
-          sw[x] += wgt;
-          swd[x] += wgt * dn;
-        }
-      }
-    }
-    float* o = out.data() + static_cast<std::size_t>(y) * w;
-    // A valid centre contributes ws(0,0) * 1 = 1 to sw, so sw >= 1; an invalid centre stays 0.
-    const float* raw = raw_depth_.data() + static_cast<std::size_t>(y) * w;
-    for (int x = 0; x < w; ++x) {
-      const float mean = swd[x] / sw[x];
-      o[x] = raw[x] > 0.0f ? mean : 0.0f;
-    }
+    for (int k = 0; k <= 2 * r; ++k) rows[k] = &padded_(0, y + k);
+    row.raw = raw_depth_.data() + static_cast<std::size_t>(y) * w;
+    kernels::bilateral_row(row, w, out.data() + static_cast<std::size_t>(y) * w);
   }
 }
 

@@ -137,7 +137,6 @@ class Preprocessor {
   Image<float> raw_depth_;        // level 0 after the cut-off, metres, 0 = invalid
   Image<float> padded_;           // the same with a border of bilateral_radius_px; invalid = sentinel
   Image<float> spatial_weights_;  // (2r+1) x (2r+1) Gaussian of the pixel offset
-  Image<float> row_weight_, row_sum_;  // one row of bilateral accumulators
   float range_scale_ = 0;         // 1 / (2 sigma_depth^2), per m^2
   bool has_intensity_ = false;
   PreprocessTimings timings_;
