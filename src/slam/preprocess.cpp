@@ -88,8 +88,8 @@ std::size_t Preprocessor::bytes_for(int width, int height, const PreprocessOptio
   std::size_t b = 0;
   for (int l = 0, w = width, h = height; l < options.levels; ++l, w /= 2, h /= 2) b += px(w, h) * kLevelBytesPerPixel;
   const int r = options.bilateral_radius_px;
-  // Cut depth, padded filter input, spatial weights, two rows.
-  b += (px(width, height) + px(width + 2 * r, height + 2 * r) + px(2 * r + 1, 2 * r + 1) + 2 * px(width, 1)) * sizeof(float);
+  // Cut depth, padded filter input, spatial weights.
+  b += (px(width, height) + px(width + 2 * r, height + 2 * r) + px(2 * r + 1, 2 * r + 1)) * sizeof(float);
   return b;
 }
 
