@@ -673,8 +673,10 @@ void SurfelFusion::scan_gated(const IndexMap& index, const SurfelPool& pool, con
 // Duplicates among one pixel's gated candidates merge into the more confident of each pair, starting
 // from the surfel the pixel was fused into.
 void SurfelFusion::merge_duplicates(SurfelPool& pool, const WindowScan& ws, float z, FusionStats& st) {
-  if (options_.merge_max_distance_px <= 0.0f || ws.n_gated < 2) return;
   const float max_cells = options_.merge_max_distance_px * static_cast<float>(scale_);  // index pixels
+  // Candidates lie in distinct index pixels (one surfel each), at least one pixel apart: below one
+  // pixel (index scale 1, the default) no pair can merge.
+  if (max_cells < 1.0f || ws.n_gated < 2) return;
   WindowScan::Gated keep = ws.gated[ws.best];
   for (int k = 0; k < ws.n_gated; ++k) {
     const WindowScan::Gated& other = ws.gated[k];
