@@ -119,21 +119,6 @@ def agreement(student_probs, teacher_probs):
 # Training
 
 
-def augment_soft(rgb, depth, probs, rng):
-    """train.augment's lighting and flips for frames with soft targets (N x h x w x C, flipped too)."""
-    n = rgb.shape[0]
-    gain = rng.uniform(0.75, 1.25, size=(n, 1, 1, 1)) * rng.uniform(0.9, 1.1, size=(n, 1, 1, 3))
-    offset = rng.uniform(-20, 20, size=(n, 1, 1, 1))
-    rgb = np.clip(rgb.astype(np.float32) * gain + offset, 0, 255).astype(np.uint8)
-    flip = rng.random(n) < 0.5
-    rgb[flip] = rgb[flip, :, ::-1]
-    depth = depth.copy()
-    depth[flip] = depth[flip, :, ::-1]
-    probs = probs.copy()
-    probs[flip] = probs[flip, :, ::-1]
-    return rgb, depth, probs
-
-
 def soft_cross_entropy(logits, target):
     """Mean over pixels of -sum_c target_c log softmax(logits)_c (N x C x H x W both): the cross
     entropy against the teacher's distribution (its KL divergence up to the teacher's entropy)."""
@@ -205,7 +190,7 @@ def train(args):
         real_loss = synth_loss = 0.0
         for b in range(steps_per_epoch):
             sel = np.sort(order[b * half:(b + 1) * half])
-            r_rgb, r_depth, r_p = augment_soft(rgb[sel], depth[sel], teacher[sel], rng)
+            r_rgb, r_depth, r_p = augment(rgb[sel], depth[sel], teacher[sel], rng)  # flips the targets too
             s_sel = np.sort(rng.choice(synth[0].shape[0], half, replace=False))
             s_rgb, s_depth, s_lab = augment(synth[0][s_sel], synth[1][s_sel], synth[2][s_sel], rng)
             target = F.interpolate(torch.from_numpy(np.ascontiguousarray(r_p.transpose(0, 3, 1, 2))),

@@ -29,7 +29,9 @@ def to_input(rgb, depth):
 
 def augment(rgb, depth, labels, rng):
     """Lighting (per-image gain and offset per channel) and horizontal flips; depth is untouched
-    apart from the flip, so the depth channel keeps its metric meaning."""
+    apart from the flip, so the depth channel keeps its metric meaning. `labels`: class ids N x H x W,
+    or per-pixel targets N x h x w x C on a grid of its own (distill.py's teacher probabilities):
+    flipped with the frame either way."""
     n = rgb.shape[0]
     gain = rng.uniform(0.75, 1.25, size=(n, 1, 1, 1)) * rng.uniform(0.9, 1.1, size=(n, 1, 1, 3))
     offset = rng.uniform(-20, 20, size=(n, 1, 1, 1))

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from edgefusion_models import distill
+from edgefusion_models import distill, train
 
 
 class SoftTargets(unittest.TestCase):
@@ -46,7 +46,7 @@ class SoftTargets(unittest.TestCase):
         probs = np.zeros((n, 3, 4, 14), np.float32)
         probs[:, :, :2, 1] = 1.0  # class 1 on the left half of the (coarser) teacher grid
         probs[:, :, 2:, 2] = 1.0
-        a_rgb, _, a_p = distill.augment_soft(rgb, depth, probs, rng)
+        a_rgb, _, a_p = train.augment(rgb, depth, probs, rng)
         flipped = a_rgb[:, :, -1, 0] > a_rgb[:, :, 0, 0]
         self.assertTrue(0 < flipped[:, 0].sum() < n)  # both cases occur
         for k in range(n):
