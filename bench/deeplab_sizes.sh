@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The real-camera network's input size, chosen by measurement (issue 28): DeepLabv3-MobileNetV2 is
 # fully convolutional, so the TFLite file (fixed at 513x513) can be imported at any size whose sides
-# are 8k+1. For each size: the import (models/import_deeplab.sh's recipe: 20 real 7-Scenes + 20
-# synthetic Kinect-camera calibration frames), its multiply-adds, the forward pass on one thread
+# are 8k+1. For each size: the import (models/import_deeplab.sh's recipe: 40 real 7-Scenes calibration
+# frames, none of them one the agreement is measured on), its multiply-adds, the forward pass on one thread
 # (`edgefusion segment --threads 1`, median over the frames), and the int8 model's argmax agreement
 # with the float reference of the file at the same size (edgefusion_models.agreement) on every K-th
 # of the 1000 real 7-Scenes frames.
@@ -33,7 +33,7 @@ for size in ${EF_SIZES:-129x97 161x121 193x145 257x193 321x241}; do
   (cd models && PYTHONPATH=. /usr/bin/python3 -m edgefusion_models.import_tflite --quiet \
     --tflite "$src/deeplabv3-mnv2-ade20k.tflite" --input "$size" --class-map "$src/ade20k_to_nyu13.json" \
     --labels "$src/ade20k-labels.txt" --frames 40 --edgefusion "$bin" --out "$model" \
-    --calibration "7scenes:$kitchen|synthetic:random?seed=9001&frames=100&size=640x480&camera=kinect")
+    --calibration "7scenes:$kitchen")
   macs=$("$bin" model info "$model" | awk '$1 == "mmacs" {printf "%.2f G", $2 / 1000}')
   out=$("$bin" model info "$model" | awk '$1 == "output" {print $2}')
   fwd=$("$bin" segment --model "$model" --source "7scenes:$kitchen" --out "$work/seg" --every 10 --threads 1 2>&1 |

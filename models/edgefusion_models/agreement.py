@@ -5,8 +5,10 @@
 
 The frames of the source are converted to the model's input size by `edgefusion convert` (the
 resampling `run` and `segment` apply), every `every`-th is kept. The float side is tflite_ref.py, the
-file's own operators in numpy, up to the logits at the model's output size; their softmax is summed
-into the model's target classes with its class map. The int8 side is the C++ runtime
+file's own operators in numpy, up to the logits at the model's output size, on the frames normalised
+as the file expects (from_tflite's DeepLab normalisation, the importer's: v / 127.5 - 1, whatever
+mean the int8 model stores, which quantize.integer_input_mean may have moved into its first bias);
+their softmax is summed into the model's target classes with its class map. The int8 side is the C++ runtime
 (`edgefusion segment --probabilities`). Reported: the share of pixels whose argmax agrees, over all
 frames, the median per frame and the worst frame, and the mean absolute probability difference.
 """
@@ -21,6 +23,7 @@ import tempfile
 import numpy as np
 
 from . import calibration, efm, tflite, tflite_ref
+from .from_tflite import DEEPLAB_MEAN, DEEPLAB_SCALE
 
 
 def softmax(x):
@@ -82,7 +85,8 @@ def main(argv=None):
         q = int8_probs(binary, a.model, out, len(frames), a.every)
     model = tflite.read(a.tflite)
     class_map = qm.class_map if qm.class_map else list(range(q.shape[-1]))
-    f = float_probs(model, frames, (h, w), class_map, q.shape[-1], qm.input_mean[0], qm.input_scale[0])
+    # The network as published: its own input normalisation, not the int8 model's (an integer mean).
+    f = float_probs(model, frames, (h, w), class_map, q.shape[-1], DEEPLAB_MEAN[0], DEEPLAB_SCALE[0])
     if f.shape != q.shape:
         raise SystemExit(f"float {f.shape} and int8 {q.shape} outputs differ in shape")
     agree = f.argmax(-1) == q.argmax(-1)

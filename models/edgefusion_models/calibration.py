@@ -14,10 +14,15 @@ import numpy as np
 TUM_DEPTH_PER_METRE = 5000.0
 
 
-def evenly_spaced(count, limit):
-    """Indices of at most `limit` frames spread over `count` (all when limit is None)."""
+def evenly_spaced(count, limit, centred=False):
+    """Indices of at most `limit` frames spread over `count` (all when limit is None): the first and
+    the last frame and evenly between them; centred: the middle frame of each of `limit` equal
+    segments, floor((k + 1/2) count / limit), which keeps away from the frames every count/limit-th
+    (1000 frames: 100 -> 5, 15, ..., 995; 40 -> 12, 37, 62, ..., none a multiple of 10)."""
     if limit is None or limit >= count:
         return np.arange(count)
+    if centred:
+        return np.unique((2 * np.arange(limit, dtype=np.int64) + 1) * count // (2 * limit))
     return np.unique(np.linspace(0, count - 1, limit).round().astype(np.int64))
 
 
@@ -53,14 +58,14 @@ def _list_file(folder, name):
     return out
 
 
-def load_tum(folder, max_frames=None):
+def load_tum(folder, max_frames=None, centred=False):
     """Raw frames of a TUM RGB-D folder as `edgefusion convert` writes it (rgb/ and depth/ PNGs in
-    the same order, depth 16-bit at 5000 per metre)."""
+    the same order, depth 16-bit at 5000 per metre); max_frames, centred: as evenly_spaced."""
     rgb_files, depth_files = _list_file(folder, "rgb.txt"), _list_file(folder, "depth.txt")
     if len(rgb_files) != len(depth_files) or not rgb_files:
         raise ValueError(f"{folder}: {len(rgb_files)} colour and {len(depth_files)} depth images")
     rgb, depth = [], []
-    for i in evenly_spaced(len(rgb_files), max_frames):
+    for i in evenly_spaced(len(rgb_files), max_frames, centred):
         bgr = cv2.imread(os.path.join(folder, rgb_files[i]), cv2.IMREAD_COLOR)
         d = cv2.imread(os.path.join(folder, depth_files[i]), cv2.IMREAD_UNCHANGED)
         if bgr is None or d is None:
@@ -94,12 +99,14 @@ def find_edgefusion(explicit=None):
     raise FileNotFoundError("no edgefusion binary with the convert command: pass --edgefusion PATH or set EDGEFUSION")
 
 
-def load_uri(uri, width, height, frames=None, edgefusion=None):
+def load_uri(uri, width, height, frames=None, edgefusion=None, centred=False):
     """Raw frames of an EdgeFusion source URI at width x height. "npz:FILE" reads an .npz directly
     (its frames must already have that size); anything else goes through
     `edgefusion convert --source URI --resolution WxH --to tum:TMP`. frames: at most that many,
-    spread evenly over the source."""
+    spread evenly over the source (centred: see evenly_spaced)."""
     if uri.startswith("npz:"):
+        if centred:
+            raise ValueError(f"{uri}: centred frame selection applies to sources, not .npz files")
         x = load_npz(uri[4:], frames)
         if x.shape[1:3] != (height, width):
             raise ValueError(f"{uri}: frames are {x.shape[2]}x{x.shape[1]}, the network takes {width}x{height}")
@@ -111,4 +118,4 @@ def load_uri(uri, width, height, frames=None, edgefusion=None):
         res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         if res.returncode != 0:
             raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}): {res.stderr.strip() or res.stdout.strip()}")
-        return load_tum(out, frames)  # spread over the whole source, not its first frames
+        return load_tum(out, frames, centred)  # spread over the whole source, not its first frames

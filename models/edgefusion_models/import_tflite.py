@@ -6,7 +6,12 @@
 The TFLite file is read by our own reader (tflite.py), folded into the runtime's layers
 (from_tflite.py) at the chosen input size, calibrated on the frames of one or more EdgeFusion sources
 (each converted to the input size by `edgefusion convert`; `|` separates sources, the frames are split
-evenly between them) and quantised by the same int8 pipeline as the other importers. The class map
+evenly between them, each source's the middle frames of equal segments: calibration.evenly_spaced
+with centred) and quantised by the same int8 pipeline as the other importers, with the choices that
+made its int8 labels follow the float network's most closely on real frames (MODEL_CARD-deeplab.md):
+an integer input mean (quantize.integer_input_mean: the int8 input exact), activation ranges clipped
+to their least squared error (quantize.calibrate, clip="mse"), and the bias correction with its
+per-channel gain correction (quantize.correct_biases, gain=True). The class map
 (JSON: {"map": {"source index": target id, ...}, "target_names" or "nyu13_names": [...]}) goes into
 the model: the runtime then gives the fusion one probability per target class, the sum over its
 source classes. The result is deterministic for given inputs on one machine.
@@ -18,7 +23,7 @@ import sys
 
 import numpy as np
 
-from . import calibration, net, tflite
+from . import calibration, net, quantize, tflite
 from .from_tflite import from_tflite
 from .graph import UnsupportedModelError
 from .pipeline import export_graph
@@ -77,14 +82,16 @@ def read_class_map(path, count):
 
 
 def load_calibration(uris, w, h, frames, edgefusion):
-    """Raw frames (N x H x W x 4) of every source, `frames` in all, split evenly."""
+    """Raw frames (N x H x W x 4) of every source, `frames` in all, split evenly; of each source the
+    middle frames of equal segments (of 1000 frames, 40: 12, 37, 62, ...; 100: 5, 15, ...: none of
+    them one of the frames every 10th from the first, on which agreement.py measures)."""
     parts = [u for u in uris.split("|") if u]
     if not parts:
         raise ValueError("no calibration source")
     out = []
     for k, uri in enumerate(parts):
         n = frames // len(parts) + (1 if k < frames % len(parts) else 0)
-        out.append(calibration.load_uri(uri, w, h, max(n, 1), edgefusion))
+        out.append(calibration.load_uri(uri, w, h, max(n, 1), edgefusion, centred=True))
     return np.concatenate(out, axis=0)
 
 
@@ -139,6 +146,7 @@ def main(argv=None):
     except (OSError, ValueError) as e:
         print(f"{e}", file=sys.stderr)
         return 2
+    quantize.integer_input_mean(g)
     h, w, _ = g.input_shape
     progress(args, f"calibration: {args.frames} frames of {args.calibration} at {w}x{h}")
     try:
@@ -151,7 +159,8 @@ def main(argv=None):
     export_graph(g, raw, args.out, args.golden_dir, 0,
                  f"{g.name} imported from TFLite at {w}x{h}, calibrated on {len(raw)} frames; "
                  "golden input = calibration frame 0",
-                 log=(lambda *a: None) if args.quiet else print, bias_correction=True)
+                 log=(lambda *a: None) if args.quiet else print, bias_correction=True, clip="mse",
+                 gain_correction=True)
     return 0
 
 

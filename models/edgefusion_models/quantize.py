@@ -2,7 +2,10 @@
 
 Choices (docs/model_format.md fixes the arithmetic, these are the exporter's):
 - Activations: per tensor, asymmetric int8 with a zero point, from the min / max observed over the
-  calibration images (always including 0, so that zero padding is exact). Layers with an output range
+  calibration images (always including 0, so that zero padding is exact), or (clip="mse", the TFLite
+  importer's) the clip inside them that minimises the tensor's expected squared quantisation error
+  on the calibration images' histogram: a few extreme values then no longer coarsen every other
+  value's step. Layers with an output range
   (ReLU6: [0, 6]) only ever produce values inside it, so their range is [0, 6] clipped to what was
   observed. Range ends are rounded outward to 8 significant bits first: a last-bit difference in the
   float forward pass (another BLAS, another CPU) then almost never changes a scale, which keeps the
@@ -63,14 +66,105 @@ def input_range(g: Graph, depth_max=DEFAULT_DEPTH_MAX_M):
     return min(ends), max(ends)
 
 
-def calibrate(g: Graph, raw_frames, in_range, batch=8):
+HISTOGRAM_BINS = 4096  # per tensor, over its observed [min, max] widened to include 0
+CLIP_STEPS = 200       # clip ends searched at k / CLIP_STEPS of the observed ends, k = 1..CLIP_STEPS
+
+
+class HistogramObserver:
+    """Per tensor, a histogram of HISTOGRAM_BINS equal bins over its known range (min and max from a
+    first pass, widened to include 0), summed over the calibration batches."""
+
+    def __init__(self, ranges):
+        self.ranges = ranges
+        self.counts = {}
+
+    def __call__(self, name, arr):
+        lo, hi = histogram_span(self.ranges[name])
+        c, _ = np.histogram(arr.reshape(-1), bins=HISTOGRAM_BINS, range=(lo, hi))
+        self.counts[name] = self.counts.get(name, 0) + c.astype(np.int64)
+
+
+def histogram_span(rng):
+    lo, hi = min(rng[0], 0.0), max(rng[1], 0.0)
+    return lo, (hi if hi > lo else lo + 1e-6)
+
+
+def quant_mse(counts, centers, lo, hi):
+    """The expected squared error of quantising the histogram's values onto the int8 grid of the
+    range [lo, hi] (widened to include 0): the rounding noise s^2 / 12 inside, the squared distance
+    to the nearer end outside."""
+    lo, hi = min(lo, 0.0), max(hi, 0.0)
+    s = (hi - lo) / 255.0
+    inside = (centers >= lo) & (centers <= hi)
+    err = np.where(inside, s * s / 12.0, np.where(centers < lo, (centers - lo) ** 2, (centers - hi) ** 2))
+    return float((counts * err).sum() / counts.sum())
+
+
+def mse_clip(counts, edges):
+    """(lo, hi): the clip of a tensor's range that minimises quant_mse on its histogram (bin counts,
+    bin edges). Each end is searched on CLIP_STEPS fractions of the observed end, by coordinate descent
+    (hi, then lo; three rounds); the observed range is kept when nothing beats it."""
+    centers = 0.5 * (edges[:-1] + edges[1:])
+    nz = np.nonzero(counts)[0]
+    o_lo, o_hi = min(float(edges[nz[0]]), 0.0), max(float(edges[nz[-1] + 1]), 0.0)
+    fr = np.linspace(1.0 / CLIP_STEPS, 1.0, CLIP_STEPS)
+    his = o_hi * fr if o_hi > 0 else np.array([0.0])
+    los = o_lo * fr if o_lo < 0 else np.array([0.0])
+    best = (quant_mse(counts, centers, o_lo, o_hi), o_lo, o_hi)
+    lo, hi = o_lo, o_hi
+    for _ in range(3):
+        hi = float(his[int(np.argmin([quant_mse(counts, centers, lo, h) for h in his]))])
+        lo = float(los[int(np.argmin([quant_mse(counts, centers, l, hi) for l in los]))])
+    e = quant_mse(counts, centers, lo, hi)
+    return (lo, hi) if e < best[0] else (best[1], best[2])
+
+
+def calibrate(g: Graph, raw_frames, in_range, batch=8, clip="minmax"):
     """{tensor: (min, max)} over raw frames N x H x W x C. The normalised input is clipped to the
-    input tensor's range first, as the int8 input saturates."""
+    input tensor's range first, as the int8 input saturates. clip="mse": a second pass histograms
+    every tensor, and each range (but the input's, which the raw domain fixes) becomes its mse_clip."""
+    if clip not in ("minmax", "mse"):
+        raise ValueError(f"calibration: clip '{clip}' is not minmax or mse")
     obs = RangeObserver()
-    for i in range(0, len(raw_frames), batch):
-        x = np.clip(normalise(g, raw_frames[i:i + batch]), np.float32(in_range[0]), np.float32(in_range[1]))
+    batches = [np.clip(normalise(g, raw_frames[i:i + batch]), np.float32(in_range[0]), np.float32(in_range[1]))
+               for i in range(0, len(raw_frames), batch)]
+    for x in batches:
         forward(g, x, observer=obs)
-    return obs.ranges
+    if clip == "minmax":
+        return obs.ranges
+    hist = HistogramObserver(obs.ranges)
+    for x in batches:
+        forward(g, x, observer=hist)
+    out = dict(obs.ranges)
+    for t, c in hist.counts.items():
+        if t != g.input:
+            lo, hi = histogram_span(obs.ranges[t])
+            out[t] = mse_clip(c, np.linspace(lo, hi, HISTOGRAM_BINS + 1))
+    return out
+
+
+def integer_input_mean(g: Graph):
+    """Makes the normalisation mean of every colour channel an integer, so that the int8 input is exact.
+
+    With mean 127.5 and scale 1 / 127.5 (DeepLab's v / 127.5 - 1), (v - 127.5) / 127.5 lies half-way
+    between two steps of any int8 grid that spans 0..255: the input rounds every pixel by half a step
+    (4e-3), away from zero, a systematic error the whole network sees. With mean 128 the input is
+    (v - 128) / 127.5, exactly q = v - 128 on the grid of step 1 / 127.5 and zero point 0. The
+    difference, (128 - 127.5) / 127.5 per channel, goes into the bias of the one convolution that reads
+    the input, which then computes what it computed before everywhere except where its window overlaps
+    the zero padding (the border rows and columns of its output, where the padding now stands for
+    v = 128 instead of v = 127.5). Means are rounded half up; a depth channel (or a graph whose input
+    has another reader than one convolution) is left as it is. Changes g in place; returns it."""
+    readers = [n for n in g.nodes if g.input in n.inputs]
+    channels = g.input_shape[2] - (1 if g.input_shape[2] == 4 else 0)  # R, G, B; not depth
+    new_mean = [math.floor(m + 0.5) if c < channels else m for c, m in enumerate(g.mean)]
+    if new_mean == list(g.mean) or len(readers) != 1 or readers[0].kind != "conv2d" or readers[0].inputs != [g.input]:
+        return g
+    n = readers[0]
+    delta = np.array([(f32(nm) - f32(m)) * f32(s) for nm, m, s in zip(new_mean, g.mean, g.scale)], np.float64)
+    n.bias = (n.bias.astype(np.float64) + np.einsum("oyxc,c->o", n.weight.astype(np.float64), delta)).astype(np.float32)
+    g.mean = [float(v) for v in new_mean]
+    return g
 
 
 # ----------------------------------------------------------------------------------------------
@@ -272,14 +366,32 @@ def _fake_quant(y, scale, zp):
     return ((np.clip(np.rint(y / s) + zp, -128, 127) - zp) * s).astype(np.float32)
 
 
-def correct_biases(g: Graph, raw_frames, ranges, depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share"):
+GAIN_LIMIT = 0.1  # the gain correction changes a channel's scale by at most this fraction
+
+
+def _quantized_weights(n: Node, s_in, s_out):
+    """The weights of convolution n as quantize_conv puts them on their int8 grid, in real units."""
+    scales, _, qw = quantize_conv(n.weight, n.bias, s_in, s_out, n.weight_scale)
+    wq = qw.reshape(n.weight.shape[0], -1).astype(np.float64) * scales.astype(np.float64)[:, None]
+    return wq.reshape(n.weight.shape).astype(np.float32)
+
+
+def correct_biases(g: Graph, raw_frames, ranges, depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share", gain=False):
     """Empirical bias correction (Nagel et al., "Data-Free Quantization Through Weight Equalization and
     Bias Correction", ICCV 2019, section 4.2, with data): quantisation errors of the weights and of
     the activations shift each convolution's output on average, and a network deep enough adds those
     shifts up. Layer by layer in order, the calibration frames go through the float graph and
     through a simulation of the int8 one (weights as quantize_conv makes them, every tensor rounded
     onto its int8 grid); each convolution's bias loses the mean difference of its pre-activation
-    outputs per channel, before the next layer is simulated. Changes g's biases in place."""
+    outputs per channel, before the next layer is simulated. Changes g's biases in place.
+
+    gain: first, each output channel's weights are scaled so that the standard deviation of its
+    simulated int8 pre-activation output equals the float one's (the quantisation of its inputs
+    shrinks or swells it; cf. Banner et al., "Post training 4-bit quantization of convolutional
+    networks", NeurIPS 2019, bias and variance correction), within 1 +- GAIN_LIMIT. The channel's int8
+    grid (Node.weight_scale) is scaled with it, so imported integers stay exactly what they were and
+    only their per-channel scale changes. Changes g's weights and grids in place; returns
+    {node name: gains}."""
     in_range = input_range(g, depth_max)
     params = activation_params(g, ranges, in_range, concat_policy)
     x = np.clip(normalise(g, raw_frames), np.float32(in_range[0]), np.float32(in_range[1]))
@@ -289,21 +401,31 @@ def correct_biases(g: Graph, raw_frames, ranges, depth_max=DEFAULT_DEPTH_MAX_M, 
     for i, n in enumerate(g.nodes):
         for t in n.inputs:
             last_use[t] = i
+    gains = {}
     for i, n in enumerate(g.nodes):
         f_in = [fl[t] for t in n.inputs]
         q_in = [qu[t] for t in n.inputs]
         if n.kind in CONV_KINDS:
             s_in = params[n.inputs[0]][0]
             s_out = params[n.output][0]
-            scales, _, qw = quantize_conv(n.weight, n.bias, s_in, s_out, n.weight_scale)
-            wq = (qw.reshape(n.weight.shape[0], -1).astype(np.float64) * scales.astype(np.float64)[:, None])
             linear = Node(**{**n.__dict__, "act_range": (-INF, INF)})
             f_pre = run_node(linear, f_in)
-            linear.weight = wq.reshape(n.weight.shape).astype(np.float32)
+            if gain:
+                linear.weight = _quantized_weights(n, s_in, s_out)
+                linear.bias = np.zeros_like(n.bias)
+                cout = f_pre.shape[-1]
+                q0 = run_node(linear, q_in).astype(np.float64).reshape(-1, cout)
+                f_std = f_pre.astype(np.float64).reshape(-1, cout).std(axis=0)
+                a = np.clip(f_std / np.maximum(q0.std(axis=0), 1e-20), 1.0 - GAIN_LIMIT, 1.0 + GAIN_LIMIT)
+                gains[n.name] = a
+                n.weight = (n.weight.astype(np.float64) * a.reshape((-1,) + (1,) * (n.weight.ndim - 1))).astype(np.float32)
+                if n.weight_scale is not None:
+                    n.weight_scale = (n.weight_scale.astype(np.float64) * a).astype(np.float32)
+                linear = Node(**{**n.__dict__, "act_range": (-INF, INF)})
+            linear.weight = _quantized_weights(n, s_in, s_out)
             q_pre = run_node(linear, q_in)
             shift = (q_pre.astype(np.float64) - f_pre).reshape(-1, f_pre.shape[-1]).mean(axis=0)
             n.bias = (n.bias.astype(np.float64) - shift).astype(np.float32)
-            linear.bias = n.bias
             q_pre = (q_pre - shift.astype(np.float32)).astype(np.float32)
             lo, hi = n.act_range
             f_out = np.clip(f_pre, np.float32(lo), np.float32(hi)) if (lo > -INF or hi < INF) else f_pre
@@ -316,13 +438,18 @@ def correct_biases(g: Graph, raw_frames, ranges, depth_max=DEFAULT_DEPTH_MAX_M, 
         for t in set(n.inputs):
             if last_use.get(t) == i and t != g.output:
                 del fl[t], qu[t]
+    return gains
 
 
 def quantize(g: Graph, raw_frames, depth_max=DEFAULT_DEPTH_MAX_M, concat_policy="share", name=None,
-             bias_correction=False):
+             bias_correction=False, clip="minmax", gain_correction=False):
     """Calibrates on raw frames (N x H x W x C: R, G, B 0..255, depth metres) and quantises.
-    bias_correction: correct_biases() on the same frames first (the TFLite importer's default)."""
-    ranges = calibrate(g, raw_frames, input_range(g, depth_max))
+    bias_correction: correct_biases() on the same frames first (the TFLite importer's default), with
+    its gain correction when gain_correction; clip: the activation ranges, calibrate()'s "minmax" or
+    "mse"."""
+    ranges = calibrate(g, raw_frames, input_range(g, depth_max), clip=clip)
     if bias_correction:
-        correct_biases(g, raw_frames, ranges, depth_max, concat_policy)
+        correct_biases(g, raw_frames, ranges, depth_max, concat_policy, gain=gain_correction)
+    elif gain_correction:
+        raise ValueError("gain correction is part of the bias correction")
     return quantize_graph(g, ranges, depth_max, concat_policy, name)

@@ -190,7 +190,8 @@ class Reader(unittest.TestCase):
 
     @unittest.skipUnless(have_deeplab(), "../shared/models/deeplabv3-mnv2-ade20k absent")
     def test_truncated_file_names_the_place(self):
-        data = open(DEEPLAB, "rb").read()
+        with open(DEEPLAB, "rb") as f:
+            data = f.read()
         for cut in (64, 1000, len(data) // 2):
             with self.assertRaises(tflite.TFLiteError) as ctx:
                 tflite.parse(data[:cut], "cut.tflite")
