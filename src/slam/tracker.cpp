@@ -7,11 +7,11 @@
 #include <sstream>
 
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "kernels/normal_equations.h"
 #include "kernels/track_rows.h"
+#include "slam/eigenvalues6.h"
 #include "slam/preprocess.h"
 
 namespace ef::slam {
@@ -55,8 +55,8 @@ double rgb_boost_for(const double* icp_upper, const TrackerOptions& o) {
   Matrix6d H = Matrix6d::Zero();
   Vector6d g = Vector6d::Zero();
   accumulate(icp_upper, 1.0, &H, &g);
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H, Eigen::EigenvaluesOnly);
-  const double lmin = eig.eigenvalues()(0), lmax = eig.eigenvalues()(5);
+  const Vector6d eigenvalues = symmetric_eigenvalues6(H);
+  const double lmin = eigenvalues(0), lmax = eigenvalues(5);
   if (!(lmin > 0)) return o.rgb_boost_max;
   return std::clamp(lmax / lmin / o.rgb_boost_condition, 1.0, o.rgb_boost_max);
 }
@@ -635,8 +635,8 @@ Status Tracker::track(const PyramidView& reference, const PyramidView& current, 
   res.rgb_rms_grey = lin.rgb_inliers > 0 ? std::sqrt(lin.rgb[r2] / static_cast<double>(lin.rgb_inliers)) : 0.0;
   const int64_t judged = icp_on ? lin.icp_inliers : lin.rgb_inliers;
   res.inlier_fraction = lin.valid > 0 ? static_cast<double>(judged) / static_cast<double>(lin.valid) : 0.0;
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H, Eigen::EigenvaluesOnly);
-  const double lmin = eig.eigenvalues()(0), lmax = eig.eigenvalues()(5);
+  const Vector6d eigenvalues = symmetric_eigenvalues6(H);
+  const double lmin = eigenvalues(0), lmax = eigenvalues(5);
   res.min_eigenvalue = lmin;
   res.condition = lmin > 0 ? lmax / lmin : std::numeric_limits<double>::infinity();
 
