@@ -485,8 +485,8 @@ void Tracker::linearise(const TrackerLevelView& ref, const TrackerLevelView& cur
   // Depth weights only re-balance the points among themselves: rescaled to a mean of 1 per inlier,
   // so the ICP term keeps its weight against the photometric one whatever the scene's depth.
   if (depth_weighting && icp_weight_sum > 0.0) {
-    const double scale = static_cast<double>(counts.icp) / icp_weight_sum;
-    for (int o = 0; o < kNeUpper; ++o) out->icp[o] *= scale;
+    const double mean_one = static_cast<double>(counts.icp) / icp_weight_sum;
+    for (int o = 0; o < kNeUpper; ++o) out->icp[o] *= mean_one;
   }
   out->valid = counts.valid;
   out->icp_inliers = counts.icp;
