@@ -13,7 +13,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Result<std::unique_ptr<FrameSource>> open_dir(const fs::path& dir, const std::string& query = "") {
+Result<std::unique_ptr<FrameSource>> open_tum_dir(const fs::path& dir, const std::string& query = "") {
   SourceUri uri;
   uri.scheme = "tum";
   uri.path = dir.string();
@@ -23,7 +23,7 @@ Result<std::unique_ptr<FrameSource>> open_dir(const fs::path& dir, const std::st
 }
 
 // Writes `n` synthetic frames as a TUM folder.
-void write_folder(const fs::path& dir, int n, int w = 32, int h = 24, bool labels = true) {
+void write_tum_folder(const fs::path& dir, int n, int w = 32, int h = 24, bool labels = true) {
   TumWriter writer;
   Intrinsics k{30.f, -31.f, 15.5f, 11.5f, w, h};
   ASSERT_TRUE(writer.open(dir.string(), k).ok());
@@ -94,24 +94,24 @@ TEST(TumPoses, InterpolatesAndRespectsMaxDifference) {
 
 TEST(TumSource, MissingFolderAndMissingLists) {
   const auto dir = test::scratch_dir("tum_missing");
-  EXPECT_ERROR_WITH(open_dir(dir / "nothing"), ErrorCode::kNotFound, (dir / "nothing").string());
-  EXPECT_ERROR_WITH(open_dir(dir), ErrorCode::kNotFound, (dir / "rgb.txt").string());
+  EXPECT_ERROR_WITH(open_tum_dir(dir / "nothing"), ErrorCode::kNotFound, (dir / "nothing").string());
+  EXPECT_ERROR_WITH(open_tum_dir(dir), ErrorCode::kNotFound, (dir / "rgb.txt").string());
   test::write_bytes((dir / "rgb.txt").string(), "1.0 rgb/a.png\n");
-  EXPECT_ERROR_WITH(open_dir(dir), ErrorCode::kNotFound, (dir / "depth.txt").string());
+  EXPECT_ERROR_WITH(open_tum_dir(dir), ErrorCode::kNotFound, (dir / "depth.txt").string());
 }
 
 TEST(TumSource, GarbageInRgbTxtNamesFileAndLine) {
   const auto dir = test::scratch_dir("tum_garbage");
-  write_folder(dir, 2);
+  write_tum_folder(dir, 2);
   test::write_bytes((dir / "rgb.txt").string(), "# c\n1305031102.175304 rgb/f0.png\n13050311O2.2 rgb/f1.png\n");
-  EXPECT_ERROR_WITH(open_dir(dir), ErrorCode::kCorruptData, (dir / "rgb.txt").string(), "line 3");
+  EXPECT_ERROR_WITH(open_tum_dir(dir), ErrorCode::kCorruptData, (dir / "rgb.txt").string(), "line 3");
 }
 
 TEST(TumSource, MissingImageFileNamesFileAndFrame) {
   const auto dir = test::scratch_dir("tum_noimage");
-  write_folder(dir, 3);
+  write_tum_folder(dir, 3);
   fs::remove(dir / "rgb" / "f1.png");
-  auto src = open_dir(dir);
+  auto src = open_tum_dir(dir);
   ASSERT_TRUE(src.ok()) << src.error().message;
   Frame f;
   ASSERT_TRUE((*src)->next(f).ok());
@@ -120,10 +120,10 @@ TEST(TumSource, MissingImageFileNamesFileAndFrame) {
 
 TEST(TumSource, DepthColourSizeMismatchNamesFileAndFrame) {
   const auto dir = test::scratch_dir("tum_size");
-  write_folder(dir, 3);
+  write_tum_folder(dir, 3);
   Frame big = test::make_frame(40, 24, 9);
   ASSERT_TRUE(write_png((dir / "rgb" / "f2.png").string(), big.color.cview()).ok());
-  auto src = open_dir(dir);
+  auto src = open_tum_dir(dir);
   ASSERT_TRUE(src.ok()) << src.error().message;
   Frame f;
   ASSERT_TRUE(*(*src)->next(f));
@@ -134,31 +134,31 @@ TEST(TumSource, DepthColourSizeMismatchNamesFileAndFrame) {
 
 TEST(TumSource, EightBitDepthIsAnError) {
   const auto dir = test::scratch_dir("tum_8bit");
-  write_folder(dir, 2);
+  write_tum_folder(dir, 2);
   Image<uint8_t> d8(32, 24);
   ASSERT_TRUE(write_png((dir / "depth" / "f0.png").string(), d8.cview()).ok());
-  EXPECT_ERROR_WITH(open_dir(dir), ErrorCode::kUnsupported, (dir / "depth" / "f0.png").string(), "16-bit");
+  EXPECT_ERROR_WITH(open_tum_dir(dir), ErrorCode::kUnsupported, (dir / "depth" / "f0.png").string(), "16-bit");
 }
 
 TEST(TumSource, UnknownQueryKeyAndBadOverride) {
   const auto dir = test::scratch_dir("tum_query");
-  write_folder(dir, 1);
-  EXPECT_ERROR_WITH(open_dir(dir, "?scale=2"), ErrorCode::kInvalidArgument, "'scale'", "'tum'");
-  EXPECT_ERROR_WITH(open_dir(dir, "?fx=abc"), ErrorCode::kInvalidArgument, "fx=abc");
+  write_tum_folder(dir, 1);
+  EXPECT_ERROR_WITH(open_tum_dir(dir, "?scale=2"), ErrorCode::kInvalidArgument, "'scale'", "'tum'");
+  EXPECT_ERROR_WITH(open_tum_dir(dir, "?fx=abc"), ErrorCode::kInvalidArgument, "fx=abc");
 }
 
 TEST(TumSource, MissingLabelImageNamesFile) {
   const auto dir = test::scratch_dir("tum_nolabel");
-  write_folder(dir, 2);
+  write_tum_folder(dir, 2);
   fs::remove(dir / "labels" / "f1.png");
-  EXPECT_ERROR_WITH(open_dir(dir), ErrorCode::kNotFound, (dir / "labels" / "f1.png").string(), "frame 1");
+  EXPECT_ERROR_WITH(open_tum_dir(dir), ErrorCode::kNotFound, (dir / "labels" / "f1.png").string(), "frame 1");
 }
 
 TEST(TumSource, WriterReaderRoundTripIsExact) {
   const auto dir = test::scratch_dir("tum_roundtrip");
   const int n = 4, w = 32, h = 24;
-  write_folder(dir, n, w, h);
-  auto src = open_dir(dir);
+  write_tum_folder(dir, n, w, h);
+  auto src = open_tum_dir(dir);
   ASSERT_TRUE(src.ok()) << src.error().message;
   const SourceInfo& info = (*src)->info();
   EXPECT_EQ(info.frame_count, n);
@@ -172,9 +172,9 @@ TEST(TumSource, WriterReaderRoundTripIsExact) {
   EXPECT_EQ(info.intrinsics_from, (dir / "intrinsics.txt").string());
   {
     const auto bare = test::scratch_dir("tum_roundtrip_bare");
-    write_folder(bare, 1, w, h);
+    write_tum_folder(bare, 1, w, h);
     fs::remove(bare / "intrinsics.txt");
-    auto plain = open_dir(bare);
+    auto plain = open_tum_dir(bare);
     ASSERT_TRUE(plain.ok()) << plain.error().message;
     EXPECT_TRUE((*plain)->info().intrinsics_assumed);
     EXPECT_NE((*plain)->info().intrinsics_from.find("Kinect v1"), std::string::npos);
@@ -211,7 +211,7 @@ TEST(TumSource, WriterReaderRoundTripIsExact) {
 
 TEST(TumSource, ReadsIclNuimFrames) {
   EF_SKIP_WITHOUT_DATASET(dir, "iclnuim-lr-kt0-6frames");
-  auto src = open_dir(dir, "?fx=481.2&fy=-480");
+  auto src = open_tum_dir(dir, "?fx=481.2&fy=-480");
   ASSERT_TRUE(src.ok()) << src.error().message;
   const SourceInfo& info = (*src)->info();
   EXPECT_EQ(info.frame_count, 6);

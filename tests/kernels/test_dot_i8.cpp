@@ -40,7 +40,7 @@ void expect_all_variants_match(const std::vector<int8_t>& a, const std::vector<i
   }
 }
 
-const std::size_t kLengths[] = {0,  1,  2,  3,  7,  8,  15, 16,  17,  31,  32,  33,  47,   48,  49,
+const std::size_t kDotLengths[] = {0,  1,  2,  3,  7,  8,  15, 16,  17,  31,  32,  33,  47,   48,  49,
                                 63, 64, 65, 95, 96, 97, 127, 128, 129, 191, 255, 256, 257, 1000, 4099};
 
 TEST(DotI8, ReportVariants) {
@@ -51,7 +51,7 @@ TEST(DotI8, ReportVariants) {
 TEST(DotI8, RandomInputsEveryLength) {
   std::mt19937 rng(12345);
   std::uniform_int_distribution<int> byte(-128, 127);
-  for (std::size_t n : kLengths) {
+  for (std::size_t n : kDotLengths) {
     for (int rep = 0; rep < 3; ++rep) {
       std::vector<int8_t> a(n), b(n);
       for (auto& x : a) x = static_cast<int8_t>(byte(rng));
@@ -63,7 +63,7 @@ TEST(DotI8, RandomInputsEveryLength) {
 
 TEST(DotI8, Extremes) {
   const int8_t values[] = {-128, -127, -1, 0, 1, 127};
-  for (std::size_t n : kLengths) {
+  for (std::size_t n : kDotLengths) {
     for (int8_t x : values) {
       for (int8_t y : values) {
         expect_all_variants_match(std::vector<int8_t>(n, x), std::vector<int8_t>(n, y),

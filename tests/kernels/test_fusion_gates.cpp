@@ -20,12 +20,12 @@ namespace {
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 // Three index rows and one row of pixels, width w.
-struct Rows {
+struct GateRows {
   int w;
   std::vector<int32_t> id[3];
   std::vector<float> depth[3], surface[3];
   std::vector<float> xi, yi, z, gate, nwx, nwy, nwz;
-  explicit Rows(int w_) : w(w_), xi(w_), yi(w_), z(w_), gate(w_), nwx(w_), nwy(w_), nwz(w_) {
+  explicit GateRows(int w_) : w(w_), xi(w_), yi(w_), z(w_), gate(w_), nwx(w_), nwy(w_), nwz(w_) {
     for (int r = 0; r < 3; ++r) {
       id[r].assign(w, -1);
       depth[r].assign(w, 0.0f);
@@ -75,14 +75,14 @@ struct Rows {
   }
 };
 
-uint32_t ref_code(const Rows& rows, int32_t pool_size, int x) {
+uint32_t ref_code(const GateRows& rows, int32_t pool_size, int x) {
   std::vector<uint32_t> code(rows.w, 0xDEADBEEFu);
   fusion_gates_ref(rows.params(pool_size), rows.row(), x, x + 1, code.data());
   return code[x];
 }
 
 TEST(FusionGates, ReferenceSetsEachBitAsTheContractSays) {
-  Rows rows(8);
+  GateRows rows(8);
   const int x = 3;
   // Nothing around the pixel: only the identity bit.
   EXPECT_EQ(ref_code(rows, 100, x), kGateIdentity);
@@ -138,8 +138,8 @@ TEST(FusionGates, ReferenceSetsEachBitAsTheContractSays) {
 }
 
 // Random rows: every kind of cell, NaN among the inputs.
-Rows random_rows(std::mt19937& rng, int w, int32_t pool_size) {
-  Rows rows(w);
+GateRows random_rows(std::mt19937& rng, int w, int32_t pool_size) {
+  GateRows rows(w);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f), d(0.5f, 4.0f), off(-0.6f, 0.6f);
   std::uniform_int_distribution<int> kind(0, 19);
   std::uniform_int_distribution<int32_t> sid(0, pool_size - 1);
@@ -185,7 +185,7 @@ TEST(FusionGates, EveryVariantEqualsTheReferenceBitForBit) {
   for (int w : {3, 4, 5, 8, 9, 16, 17, 18, 33, 320}) {
     std::mt19937 rng(77u + static_cast<unsigned>(w));
     for (int rep = 0; rep < 20; ++rep) {
-      const Rows rows = random_rows(rng, w, pool_size);
+      const GateRows rows = random_rows(rng, w, pool_size);
       const FusionGateParams p = rows.params(pool_size);
       std::vector<uint32_t> want(w, 0xDEADBEEFu);
       fusion_gates_ref(p, rows.row(), 1, w - 1, want.data());
@@ -218,7 +218,7 @@ TEST(FusionGates, EveryVariantEqualsTheReferenceBitForBit) {
 
 TEST(FusionGates, DispatchMatchesTheReference) {
   std::mt19937 rng(5u);
-  const Rows rows = random_rows(rng, 64, 1000);
+  const GateRows rows = random_rows(rng, 64, 1000);
   std::vector<uint32_t> a(64, 0), b(64, 0);
   fusion_gates(rows.params(1000), rows.row(), 1, 63, a.data());
   fusion_gates_ref(rows.params(1000), rows.row(), 1, 63, b.data());

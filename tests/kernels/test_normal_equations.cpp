@@ -21,10 +21,10 @@ namespace {
 
 // SoA rows in a buffer that ends exactly where component 7 of row n-1 ends, `offset` floats into the
 // allocation (so over-reads are heap overflows under ASan and pointers are not vector-aligned).
-struct Rows {
+struct NeRows {
   std::size_t n = 0, stride = 0, offset = 0;
   std::vector<float> buf;
-  Rows(std::size_t n_, std::size_t stride_, std::size_t offset_) : n(n_), stride(stride_), offset(offset_) {
+  NeRows(std::size_t n_, std::size_t stride_, std::size_t offset_) : n(n_), stride(stride_), offset(offset_) {
     buf.assign(offset + 7 * stride + n, -12345.0f);  // poison the gaps between streams
     for (int k = 0; k < kNeComponents; ++k)
       for (std::size_t i = 0; i < n; ++i) at(k, i) = 0.0f;
@@ -44,7 +44,7 @@ std::string first_difference(const NormalEquations& a, const NormalEquations& b)
   return "";
 }
 
-void expect_variants_equal_reference(const Rows& rows, const std::string& what) {
+void expect_variants_equal_reference(const NeRows& rows, const std::string& what) {
   NormalEquations want;
   reduce_normal_equations_ref(rows.data(), rows.stride, rows.n, &want);
   for (const auto& v : kReduceNormalEquationsVariants) {
@@ -60,8 +60,8 @@ void expect_variants_equal_reference(const Rows& rows, const std::string& what) 
 }
 
 // Random rows: J ~ scale * N(0,1), r ~ scale * N(0,1), w uniform in [0,1) with ~10% exact zeros.
-Rows random_rows(std::size_t n, std::size_t stride, std::size_t offset, float scale, uint32_t seed) {
-  Rows rows(n, stride, offset);
+NeRows random_rows(std::size_t n, std::size_t stride, std::size_t offset, float scale, uint32_t seed) {
+  NeRows rows(n, stride, offset);
   std::mt19937 rng(seed);
   std::normal_distribution<float> gauss(0.0f, 1.0f);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
@@ -76,8 +76,8 @@ Rows random_rows(std::size_t n, std::size_t stride, std::size_t offset, float sc
 // Point-to-plane ICP rows as the tracker will write them (KinectFusion, Newcombe et al. 2011, eq. 2
 // linearised): J = (n^T, (p x n)^T), r = n . (q - p) for camera points p up to 4 m, unit normals n,
 // residuals of a few millimetres, Huber-like weights; 20% of the rows invalid (w = 0).
-Rows icp_rows(std::size_t n, uint32_t seed) {
-  Rows rows(n, n, 0);
+NeRows icp_rows(std::size_t n, uint32_t seed) {
+  NeRows rows(n, n, 0);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::normal_distribution<double> noise(0.0, 0.004);
@@ -99,7 +99,7 @@ Rows icp_rows(std::size_t n, uint32_t seed) {
   return rows;
 }
 
-const std::size_t kSizes[] = {0,   1,   2,   3,   7,   8,    9,    15,   16,   17,   31,    33,    63,   64,
+const std::size_t kNeSizes[] = {0,   1,   2,   3,   7,   8,    9,    15,   16,   17,   31,    33,    63,   64,
                               65,  127, 511, 512, 513, 519,  520,  1023, 1024, 1025, 1031,  4097,  76800, 76801};
 
 TEST(NormalEquations, ReportVariants) {
@@ -109,7 +109,7 @@ TEST(NormalEquations, ReportVariants) {
 }
 
 TEST(NormalEquations, OneRowIsTheOuterProduct) {
-  Rows rows(1, 1, 0);
+  NeRows rows(1, 1, 0);
   const float a[7] = {1, 2, 3, 4, 5, 6, 7};
   for (int k = 0; k < 7; ++k) rows.at(k, 0) = a[k];
   rows.at(7, 0) = 2.0f;
@@ -145,7 +145,7 @@ TEST(NormalEquations, EmptyInputGivesZeros) {
 
 TEST(NormalEquations, RandomRowsEverySizeBitIdentical) {
   uint32_t seed = 1;
-  for (std::size_t n : kSizes) {
+  for (std::size_t n : kNeSizes) {
     expect_variants_equal_reference(random_rows(n, n, 0, 1.0f, seed++), "random, packed");
     expect_variants_equal_reference(random_rows(n, n + 5, 1, 1.0f, seed++), "random, stride n+5, offset 1");
   }
@@ -153,7 +153,7 @@ TEST(NormalEquations, RandomRowsEverySizeBitIdentical) {
 
 TEST(NormalEquations, ZeroWeightsAddNothing) {
   for (std::size_t n : {std::size_t{9}, std::size_t{517}, std::size_t{76800}}) {
-    Rows rows = random_rows(n, n, 0, 3.0f, 77);
+    NeRows rows = random_rows(n, n, 0, 3.0f, 77);
     for (std::size_t i = 0; i < n; ++i) rows.at(7, i) = 0.0f;
     NormalEquations ne;
     reduce_normal_equations_ref(rows.data(), rows.stride, n, &ne);
@@ -161,8 +161,8 @@ TEST(NormalEquations, ZeroWeightsAddNothing) {
     EXPECT_EQ(ne.inliers, 0);
     expect_variants_equal_reference(rows, "all weights zero");
     // Zero-weight rows interleaved with live ones change nothing versus leaving those rows' J and r at 0.
-    Rows half = random_rows(n, n, 0, 1.0f, 78);
-    Rows cleared = half;
+    NeRows half = random_rows(n, n, 0, 1.0f, 78);
+    NeRows cleared = half;
     for (std::size_t i = 0; i < n; i += 3) {
       half.at(7, i) = 0.0f;
       for (int k = 0; k < kNeComponents; ++k) cleared.at(k, i) = 0.0f;
@@ -180,19 +180,19 @@ TEST(NormalEquations, HugeTinyAndMixedMagnitudes) {
   for (std::size_t n : {std::size_t{17}, std::size_t{1031}, std::size_t{76800}}) {
     expect_variants_equal_reference(random_rows(n, n, 0, 1e12f, seed++), "huge (1e12)");
     expect_variants_equal_reference(random_rows(n, n, 0, 1e-19f, seed++), "tiny (subnormal products)");
-    Rows mixed = random_rows(n, n, 3, 1.0f, seed++);
+    NeRows mixed = random_rows(n, n, 3, 1.0f, seed++);
     const float scales[] = {1e-18f, 1e-3f, 1.0f, 1e4f, 1e13f};
     for (std::size_t i = 0; i < n; ++i)
       for (int k = 0; k < 7; ++k) mixed.at(k, i) *= scales[(i * 7 + k) % 5];
     expect_variants_equal_reference(mixed, "mixed magnitudes");
     // Overflow to infinity happens identically too.
-    Rows over = random_rows(n, n, 0, 3e19f, seed++);
+    NeRows over = random_rows(n, n, 0, 3e19f, seed++);
     expect_variants_equal_reference(over, "overflowing products");
   }
 }
 
 TEST(NormalEquations, DispatchedMatchesReference) {
-  const Rows rows = icp_rows(20011, 5);
+  const NeRows rows = icp_rows(20011, 5);
   NormalEquations a, b;
   reduce_normal_equations(rows.data(), rows.stride, rows.n, &a);
   reduce_normal_equations_ref(rows.data(), rows.stride, rows.n, &b);
@@ -203,7 +203,7 @@ TEST(NormalEquations, DispatchedMatchesReference) {
 // double sum): the error of the float lanes, relative to sum |term| of each output.
 TEST(NormalEquations, ReferenceAgreesWithDoubleOnRealisticRows) {
   const std::size_t n = 76800;  // one 320x240 frame
-  const Rows rows = icp_rows(n, 42);
+  const NeRows rows = icp_rows(n, 42);
   NormalEquations ne;
   reduce_normal_equations_ref(rows.data(), rows.stride, n, &ne);
   expect_variants_equal_reference(rows, "realistic ICP rows");
@@ -238,7 +238,7 @@ TEST(NormalEquations, ReferenceAgreesWithDoubleOnRealisticRows) {
 // the count). Inputs come from integer arithmetic only, so they are identical everywhere.
 TEST(NormalEquations, SameBitsOnEveryArchitecture) {
   const std::size_t n = 4099;
-  Rows rows(n, n, 0);
+  NeRows rows(n, n, 0);
   uint32_t state = 2463534242u;
   auto next = [&state] {  // xorshift32
     state ^= state << 13;

@@ -179,16 +179,16 @@ Current make_current(const RefMaps& r, const TrackRowsParams& p, std::size_t n, 
 }
 
 // SoA rows with a poisoned gap after each component, `offset` floats into the allocation.
-struct Rows {
+struct RowTile {
   std::size_t n = 0, stride = 0, offset = 0;
   std::vector<float> buf;
-  Rows(std::size_t n_, std::size_t stride_, std::size_t offset_)
+  RowTile(std::size_t n_, std::size_t stride_, std::size_t offset_)
       : n(n_), stride(stride_), offset(offset_), buf(offset_ + 8 * stride_ + 3, kPoison) {}
   float* data() { return buf.data() + offset; }
   float at(int k, std::size_t j) const { return buf[offset + k * stride + j]; }
 };
 
-std::string first_difference(const Rows& a, const Rows& b, const char* term) {
+std::string first_difference(const RowTile& a, const RowTile& b, const char* term) {
   if (a.buf.size() != b.buf.size()) return "sizes";
   for (std::size_t i = 0; i < a.buf.size(); ++i)
     if (std::memcmp(&a.buf[i], &b.buf[i], sizeof(float)) != 0) {
@@ -202,12 +202,12 @@ std::string first_difference(const Rows& a, const Rows& b, const char* term) {
 }
 
 struct Output {
-  Rows icp, rgb;
+  RowTile icp, rgb;
   TrackRowsCounts counts;
 };
 
 Output run_variant(TrackRowsFn fn, const TrackRowsParams& p, const Current& c, std::size_t stride, std::size_t off) {
-  Output o{Rows(c.n, stride, off), Rows(c.n, stride, off + 1), {}};
+  Output o{RowTile(c.n, stride, off), RowTile(c.n, stride, off + 1), {}};
   o.counts.valid = 1;  // counts are added to
   fn(p, c.v(), p.use_icp ? c.nrm() : nullptr, p.use_rgb ? c.in() : nullptr, c.n, p.use_icp ? o.icp.data() : nullptr,
      p.use_rgb ? o.rgb.data() : nullptr, stride, &o.counts);
@@ -233,7 +233,7 @@ TrackRowsCounts expect_variants_equal_reference(const TrackRowsParams& p, const 
   return c0;
 }
 
-const std::size_t kSizes[] = {0, 1, 2, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 32, 33, 47, 48, 63, 64, 65, 100, 320, 643};
+const std::size_t kTrackSizes[] = {0, 1, 2, 3, 4, 5, 7, 8, 9, 15, 16, 17, 31, 32, 33, 47, 48, 63, 64, 65, 100, 320, 643};
 
 TEST(TrackRows, ReportVariants) {
   const auto ran = ef::test::runnable_variants(kTrackRowsVariants, "track_rows");
@@ -253,7 +253,7 @@ TEST(TrackRows, EveryVariantEqualsReferenceBitForBit) {
   for (const auto& pose : poses) {
     TrackRowsParams p = params_for(ref);
     set_pose(p, pose + 3, pose);
-    for (std::size_t n : kSizes) {
+    for (std::size_t n : kTrackSizes) {
       const Current c = make_current(ref, p, n, n % 3, seed++);
       const TrackRowsCounts k = expect_variants_equal_reference(p, c, "joint");
       total.valid += k.valid;
@@ -328,7 +328,7 @@ TEST(TrackRows, ReferenceFollowsTheFormulas) {
   std::vector<float> v = {q[0] * s, q[1] * s, q[2] * s, 0, 0, 0, q[0] * s2, q[1] * s2, q[2] * s2, q[0], q[1], q[2]};
   std::vector<float> n = {0, 0, -1, 0, 0, -1, 0, 0, -1, std::sin(th), 0, -std::cos(th)};
   std::vector<float> in = {50.0f, 1.0f, 2.0f, 130.0f + 40.0f};
-  Rows icp(4, 4, 0), rgb(4, 4, 0);
+  RowTile icp(4, 4, 0), rgb(4, 4, 0);
   TrackRowsCounts counts;
   track_rows_ref(p, v.data(), n.data(), in.data(), 4, icp.data(), rgb.data(), 4, &counts);
   EXPECT_EQ(counts.valid, 3);
@@ -437,12 +437,12 @@ TEST(TrackRows, SameBitsOnEveryArchitecture) {
     if (next() % 11 == 0) v[3 * j + 2] = 0.0f;
     in[j] = 128.0f + 127.0f * unit();
   }
-  Rows icp(n, n, 0), rgb(n, n, 0);
+  RowTile icp(n, n, 0), rgb(n, n, 0);
   TrackRowsCounts counts;
   track_rows_ref(p, v.data(), nn.data(), in.data(), n, icp.data(), rgb.data(), n, &counts);
   for (const auto& var : kTrackRowsVariants) {
     if (!isa_available(var.isa, detected_cpu_features())) continue;
-    Rows i2(n, n, 0), r2(n, n, 0);
+    RowTile i2(n, n, 0), r2(n, n, 0);
     TrackRowsCounts c2;
     var.fn(p, v.data(), nn.data(), in.data(), n, i2.data(), r2.data(), n, &c2);
     EXPECT_EQ(first_difference(i2, icp, "icp") + first_difference(r2, rgb, "rgb"), "") << var.name;

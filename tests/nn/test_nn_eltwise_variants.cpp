@@ -255,12 +255,12 @@ void check_pool(const PoolCase& k, std::mt19937& rng, bool all_min = false) {
   }
 }
 
-const int kChannels[] = {1, 2, 3, 7, 8, 9, 15, 16, 17, 24, 31, 32, 33, 40, 47, 48, 49, 63, 64, 65, 70};
+const int kEltwiseChannels[] = {1, 2, 3, 7, 8, 9, 15, 16, 17, 24, 31, 32, 33, 40, 47, 48, 49, 63, 64, 65, 70};
 
 TEST(EltwiseVariants, MaxPoolCommonShapes) {
   std::mt19937 rng(42);
   std::uniform_int_distribution<int> hw(3, 11);
-  for (int c : kChannels) {
+  for (int c : kEltwiseChannels) {
     for (int rep = 0; rep < 2; ++rep) {
       PoolCase k;
       k.h = hw(rng);
@@ -335,18 +335,18 @@ TEST(EltwiseVariants, MaxPoolLargeWindows) {
 // ------------------------------------------------------------------------------------------ avgpool
 
 // Inputs: random, all -128, or all 127 (the extremes of the window sums).
-enum class Fill { kRandom, kMin, kMax };
+enum class EltwiseFill { kRandom, kMin, kMax };
 
 // Runs every avgpool variant on the case; the multipliers per window size are the loader's:
 // m_n = float(ratio / n), ratio = s_in / s_out.
 void check_avgpool(const PoolCase& k, std::mt19937& rng, int32_t zi, int32_t zo, double ratio,
-                   Fill fill = Fill::kRandom) {
+                   EltwiseFill fill = EltwiseFill::kRandom) {
   ASSERT_GE(k.h + k.pt + k.pb, k.kh) << k.str();
   ASSERT_GE(k.w + k.pl + k.pr, k.kw) << k.str();
   const int oh = k.out_h(), ow = k.out_w();
   const std::size_t in_n = std::size_t(k.h) * k.w * k.c, out_n = std::size_t(oh) * ow * k.c;
-  const std::vector<int8_t> in = fill == Fill::kRandom ? random_bytes(in_n, rng)
-                                                       : std::vector<int8_t>(in_n, fill == Fill::kMin ? -128 : 127);
+  const std::vector<int8_t> in = fill == EltwiseFill::kRandom ? random_bytes(in_n, rng)
+                                                       : std::vector<int8_t>(in_n, fill == EltwiseFill::kMin ? -128 : 127);
   std::vector<Requant> by_count(std::size_t(k.kh) * k.kw);
   for (std::size_t n = 1; n <= by_count.size(); ++n) by_count[n - 1].multiplier = static_cast<float>(ratio / double(n));
   PoolArgs p;
@@ -374,7 +374,7 @@ void check_avgpool(const PoolCase& k, std::mt19937& rng, int32_t zi, int32_t zo,
 TEST(EltwiseVariants, AvgPoolCommonShapes) {
   std::mt19937 rng(45);
   std::uniform_int_distribution<int> hw(3, 11), zp(-128, 127);
-  for (int c : kChannels) {
+  for (int c : kEltwiseChannels) {
     PoolCase k;
     k.h = hw(rng);
     k.w = hw(rng);
@@ -387,8 +387,8 @@ TEST(EltwiseVariants, AvgPoolCommonShapes) {
     check_avgpool(k, rng, zp(rng), zp(rng), log_uniform(rng, -3, 3));
     k.sh = k.sw = 1;  // 3x3 s1 pad 1
     check_avgpool(k, rng, zp(rng), zp(rng), log_uniform(rng, -3, 3));
-    check_avgpool(k, rng, 0, 0, 1.0, Fill::kMin);
-    check_avgpool(k, rng, -128, 127, 1.0, Fill::kMax);
+    check_avgpool(k, rng, 0, 0, 1.0, EltwiseFill::kMin);
+    check_avgpool(k, rng, -128, 127, 1.0, EltwiseFill::kMax);
   }
 }
 
@@ -406,8 +406,8 @@ TEST(EltwiseVariants, AvgPoolTiesAndSaturation) {
     for (double ratio : {0.5, 1.0, 2.0, 0.25}) check_avgpool(k, rng, zp(rng), zp(rng), ratio);
     for (double ratio : {64.0, 4096.0, 1e6}) {  // every output saturates at -128 or 127
       check_avgpool(k, rng, zp(rng), zp(rng), ratio);
-      check_avgpool(k, rng, -128, 127, ratio, Fill::kMax);
-      check_avgpool(k, rng, 127, -128, ratio, Fill::kMin);
+      check_avgpool(k, rng, -128, 127, ratio, EltwiseFill::kMax);
+      check_avgpool(k, rng, 127, -128, ratio, EltwiseFill::kMin);
     }
   }
 }
@@ -440,8 +440,8 @@ TEST(EltwiseVariants, AvgPoolAsymmetricAndLargeWindows) {
     k.kh = 31;  // global 31 x 31 pool: sums up to 961 * 255
     k.kw = 31;
     check_avgpool(k, rng, zp(rng), zp(rng), 1.0);
-    check_avgpool(k, rng, -128, 0, 1.0, Fill::kMax);
-    check_avgpool(k, rng, 127, 0, 1.0, Fill::kMin);
+    check_avgpool(k, rng, -128, 0, 1.0, EltwiseFill::kMax);
+    check_avgpool(k, rng, 127, 0, 1.0, EltwiseFill::kMin);
   }
 }
 
@@ -533,7 +533,7 @@ void check_concat(int h, int w, const std::vector<ConcatInput>& ins, int32_t zo,
 TEST(EltwiseVariants, ConcatCopiesAndRequantisations) {
   std::mt19937 rng(49);
   std::uniform_int_distribution<int> zp(-128, 127), hw(1, 9);
-  for (int c0 : kChannels)
+  for (int c0 : kEltwiseChannels)
     for (int c1 : {1, 7, 16, 17, 32, 64, 65}) {
       const int h = hw(rng), w = hw(rng);
       const int32_t zo = zp(rng);

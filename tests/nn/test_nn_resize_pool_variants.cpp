@@ -45,7 +45,7 @@ const std::vector<const ResizeVariant*>& resize_variants() {
       ef::test::runnable_variants(kResizeBilinearI8Variants, "resize_bilinear_i8");
   return v;
 }
-const std::vector<const PoolVariant*>& avgpool_variants() {
+const std::vector<const PoolVariant*>& avg_pool_variants() {
   static const std::vector<const PoolVariant*> v = ef::test::runnable_variants(kAvgPoolI8Variants, "avgpool_i8");
   return v;
 }
@@ -259,7 +259,7 @@ void check_global_pool(int h, int w, int c, int32_t zi, int32_t zo, double ratio
     const double mean = std::clamp(sum * ratio / (h * w) + zo, -128.0, 127.0);
     EXPECT_LE(std::abs(want[k] - mean), 1.0) << "channel " << k;
   }
-  for (const PoolVariant* v : avgpool_variants()) {
+  for (const PoolVariant* v : avg_pool_variants()) {
     SCOPED_TRACE(std::string(v->name) + " global " + std::to_string(h) + "x" + std::to_string(w) + "x" +
                  std::to_string(c) + " zi " + std::to_string(zi) + " zo " + std::to_string(zo));
     std::vector<int8_t> got(want.size(), 0x55);

@@ -73,12 +73,12 @@ void check_upsample(bool bilinear, int h, int w, int c, int f, std::mt19937& rng
   }
 }
 
-const int kChannels[] = {1, 2, 3, 4, 5, 7, 8, 9, 13, 14, 15, 16, 17, 24, 31, 32, 33, 47, 48, 49, 63, 64, 65, 70};
+const int kUpsampleChannels[] = {1, 2, 3, 4, 5, 7, 8, 9, 13, 14, 15, 16, 17, 24, 31, 32, 33, 47, 48, 49, 63, 64, 65, 70};
 
 TEST(UpsampleVariants, BilinearChannelsAndFactors) {
   std::mt19937 rng(60);
   std::uniform_int_distribution<int> hw(1, 7);
-  for (int c : kChannels)
+  for (int c : kUpsampleChannels)
     for (int f = 1; f <= 4; ++f) check_upsample(true, hw(rng), hw(rng), c, f, rng);
 }
 
@@ -113,7 +113,7 @@ TEST(UpsampleVariants, BilinearShippedShapes) {
 TEST(UpsampleVariants, Nearest) {
   std::mt19937 rng(65);
   std::uniform_int_distribution<int> hw(1, 7);
-  for (int c : kChannels)
+  for (int c : kUpsampleChannels)
     for (int f : {1, 2, 3, 4}) check_upsample(false, hw(rng), hw(rng), c, f, rng);
   for (int f = 1; f <= 16; ++f)
     for (int c : {1, 14, 64, 65}) {

@@ -62,14 +62,14 @@ struct Path {
   static Eigen::Vector3f point(int f) { return {0.01f * f, 0.3f * std::sin(0.02f * f), 1.0f}; }
 };
 
-DeformationGraph make(DeformationGraphOptions o = {}) {
+DeformationGraph make_graph(DeformationGraphOptions o = {}) {
   auto g = DeformationGraph::create(o);
   EXPECT_TRUE(g.ok()) << to_string(g.error());
   return std::move(*g);
 }
 
 TEST(DeformationGraph, ALoopsEndMovesToItsConstraintsAndTheStartStaysPinned) {
-  DeformationGraph g = make();
+  DeformationGraph g = make_graph();
   const Path path;
   ASSERT_TRUE(g.build(path.nodes.data(), path.times.data(), static_cast<int32_t>(path.nodes.size())).ok());
   const Eigen::Vector3f shift(0.0f, 0.10f, -0.05f);
@@ -94,7 +94,7 @@ TEST(DeformationGraph, ALoopsEndMovesToItsConstraintsAndTheStartStaysPinned) {
 }
 
 TEST(DeformationGraph, ContradictoryConstraintsAreLeftFarFromMet) {
-  DeformationGraph g = make();
+  DeformationGraph g = make_graph();
   const Path path;
   ASSERT_TRUE(g.build(path.nodes.data(), path.times.data(), static_cast<int32_t>(path.nodes.size())).ok());
   // The same points asked to go to two places 1 m apart: no deformation meets both; a caller
@@ -111,7 +111,7 @@ TEST(DeformationGraph, ContradictoryConstraintsAreLeftFarFromMet) {
 TEST(DeformationGraph, TheConstraintTableIsBounded) {
   DeformationGraphOptions o;
   o.max_constraints = 5;
-  DeformationGraph g = make(o);
+  DeformationGraph g = make_graph(o);
   const Path path;
   ASSERT_TRUE(g.build(path.nodes.data(), path.times.data(), static_cast<int32_t>(path.nodes.size())).ok());
   for (int i = 0; i < 5; ++i) EXPECT_TRUE(g.add_constraint(Path::point(i), i, Path::point(i)));
@@ -119,7 +119,7 @@ TEST(DeformationGraph, TheConstraintTableIsBounded) {
   EXPECT_EQ(g.constraints(), 5);
   EXPECT_FALSE(DeformationGraph::create(DeformationGraphOptions{2}).ok());  // max_nodes < 4
   // Before build(): nothing moves, and optimise() says why.
-  DeformationGraph empty = make();
+  DeformationGraph empty = make_graph();
   EXPECT_EQ(empty.apply_point(Eigen::Vector3f(1, 2, 3), 5), Eigen::Vector3f(1, 2, 3));
   EXPECT_EQ(empty.apply_pose(SE3(Eigen::Matrix3d::Identity(), Eigen::Vector3d(1, 0, 0)), 5).translation(),
             Eigen::Vector3d(1, 0, 0));
@@ -154,7 +154,7 @@ TEST(DeformationGraph, LabelsRideAlongWithTheirSurfels) {
 
   DeformationGraphOptions o;
   o.surfels_per_node = 100;  // 30 nodes
-  DeformationGraph g = make(o);
+  DeformationGraph g = make_graph(o);
   ASSERT_TRUE(g.build(pool).ok());
   EXPECT_EQ(g.nodes(), 30);
   for (int f = 0; f < 50; f += 5) g.add_constraint(Path::point(f), f, Path::point(f));
@@ -184,7 +184,7 @@ TEST(DeformationGraph, LabelsRideAlongWithTheirSurfels) {
 
 TEST(DeformationGraph, OptimisingAndApplyingAllocateNothing) {
   ASSERT_TRUE(test::allocation_counting_enabled());
-  DeformationGraph g = make();
+  DeformationGraph g = make_graph();
   const Path path;
   SurfelPoolOptions po;
   po.capacity = 100;

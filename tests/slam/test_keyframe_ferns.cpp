@@ -30,14 +30,14 @@ struct TestFrame {
   }
 };
 
-KeyframeFerns make(KeyframeFernOptions o = {}) {
+KeyframeFerns make_ferns(KeyframeFernOptions o = {}) {
   auto f = KeyframeFerns::create(kW, kH, o);
   EXPECT_TRUE(f.ok()) << to_string(f.error());
   return std::move(*f);
 }
 
 TEST(KeyframeFerns, EncodingIsDeterministicAndSeparatesViews) {
-  KeyframeFerns a = make(), b = make();
+  KeyframeFerns a = make_ferns(), b = make_ferns();
   FernCode ca = a.make_code(), cb = b.make_code(), other = a.make_code();
   const TestFrame f0(0), f80(80);
   a.encode(f0.depth.view(), f0.color.view(), &ca);
@@ -57,7 +57,7 @@ TEST(KeyframeFerns, EncodingIsDeterministicAndSeparatesViews) {
 TEST(KeyframeFerns, OnlyNovelViewsBecomeKeyframesAndAFullDatabaseRefuses) {
   KeyframeFernOptions o;
   o.capacity = 2;
-  KeyframeFerns db = make(o);
+  KeyframeFerns db = make_ferns(o);
   FernCode c = db.make_code();
   const TestFrame f0(0), f1(1), f60(60), f120(120);
   db.encode(f0.depth.view(), f0.color.view(), &c);
@@ -76,7 +76,7 @@ TEST(KeyframeFerns, OnlyNovelViewsBecomeKeyframesAndAFullDatabaseRefuses) {
 }
 
 TEST(KeyframeFerns, BestMatchesAreTheMostSimilarFirstWithinTheThreshold) {
-  KeyframeFerns db = make();
+  KeyframeFerns db = make_ferns();
   FernCode c = db.make_code();
   for (int shift : {0, 40, 80, 120}) {
     const TestFrame f(shift);
@@ -97,14 +97,14 @@ TEST(KeyframeFerns, BestMatchesAreTheMostSimilarFirstWithinTheThreshold) {
 }
 
 TEST(KeyframeFerns, RestoreTakesASavedDatabaseAndRejectsWhatDoesNotFit) {
-  KeyframeFerns a = make();
+  KeyframeFerns a = make_ferns();
   FernCode c = a.make_code();
   for (int shift : {0, 70}) {
     const TestFrame f(shift);
     a.encode(f.depth.view(), f.color.view(), &c);
     a.add_if_novel(c, SE3(Eigen::Matrix3d::Identity(), Eigen::Vector3d(shift, 0, 0)), shift);
   }
-  KeyframeFerns b = make();
+  KeyframeFerns b = make_ferns();
   ASSERT_TRUE(b.restore(a.size(), a.code(0), a.pose_words(), a.frames(), 3).ok());
   EXPECT_EQ(b.size(), 2);
   EXPECT_EQ(b.refused(), 3u);
@@ -112,7 +112,7 @@ TEST(KeyframeFerns, RestoreTakesASavedDatabaseAndRejectsWhatDoesNotFit) {
   EXPECT_EQ(std::vector<uint8_t>(b.code(1), b.code(1) + b.ferns()), std::vector<uint8_t>(a.code(1), a.code(1) + a.ferns()));
   KeyframeFernOptions one;
   one.capacity = 1;
-  KeyframeFerns small = make(one);
+  KeyframeFerns small = make_ferns(one);
   EXPECT_FALSE(small.restore(2, a.code(0), a.pose_words(), a.frames(), 0).ok());
   std::vector<double> bad(a.pose_words(), a.pose_words() + 14);
   bad[6] = 3.0;  // quaternion w: not unit length
@@ -136,7 +136,7 @@ TEST(KeyframeFerns, OptionsOutOfRangeAreRejected) {
 
 TEST(KeyframeFerns, EncodingAndLookupAllocateNothing) {
   ASSERT_TRUE(test::allocation_counting_enabled());
-  KeyframeFerns db = make();
+  KeyframeFerns db = make_ferns();
   FernCode c = db.make_code();
   const TestFrame f0(0), f50(50);
   KeyframeMatch m[4];

@@ -26,7 +26,7 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-SurfelPool make_pool(int64_t capacity = 200'000) {
+SurfelPool make_prediction_pool(int64_t capacity = 200'000) {
   SurfelPoolOptions o;
   o.capacity = capacity;
   auto p = SurfelPool::create(o);
@@ -164,7 +164,7 @@ TEST(ModelPredict, CreateRejectsBadSizesAndLevels) {
   EXPECT_FALSE(ModelPredictor::create(small_camera(), 4, {}).ok());  // 80x60 -> level 3 is 10x7
   EXPECT_TRUE(ModelPredictor::create(small_camera(), 3, {}).ok());
   auto p = make_predictor(small_camera());
-  SurfelPool pool = make_pool(10);
+  SurfelPool pool = make_prediction_pool(10);
   EXPECT_FALSE(p.predict(pool, SE3(), 0, -1.0f).ok());
   EXPECT_FALSE(p.predict(pool, SE3(), 0, NAN).ok());
 }
@@ -198,7 +198,7 @@ TEST(ModelPredict, BytesAreWhatCreateAllocated) {
 TEST(ModelPredict, IndexMapSurfacesAreThoseOfItsSurfels) {
   const Intrinsics K = small_camera();
   const SE3 T_wc = some_pose();
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (int i = 0; i < 20000; ++i) {
@@ -243,7 +243,7 @@ TEST(ModelPredict, EmptyPoolGivesEmptyMaps) {
   auto p = make_predictor(small_camera());
   // Before any predict() the maps are empty too (the index map says -1, not surfel 0).
   EXPECT_EQ(p.index_map().id(5, 5), -1);
-  SurfelPool pool = make_pool(10);
+  SurfelPool pool = make_prediction_pool(10);
   ASSERT_TRUE(p.predict(pool, some_pose(), 0).ok());
   EXPECT_EQ(p.counters().valid_pixels, 0);
   EXPECT_EQ(p.index_map().surfels_drawn, 0);
@@ -258,7 +258,7 @@ TEST(ModelPredict, PlaneGivesAnalyticMapsAndIds) {
   const Intrinsics K = small_camera();
   const SE3 T_wc = some_pose();
   const Plane plane = tilted_plane(2.0);
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   const std::vector<int64_t> ids = fill_plane(pool, K, T_wc, plane, 20.0f);
   auto p = make_predictor(K);
   ASSERT_TRUE(p.predict(pool, T_wc, 0).ok());
@@ -319,7 +319,7 @@ TEST(ModelPredict, IndexMapScalesOneAndTwo) {
     PredictionOptions o;
     o.index_map_scale = s;
     auto p = make_predictor(K, 3, o);
-    SurfelPool pool = make_pool(10);
+    SurfelPool pool = make_prediction_pool(10);
     // A surfel on the ray through working pixel (30.3, 20.4): index coordinate (u + 0.5) s - 0.5.
     const double u = 30.3, v = 20.4, z = 1.5;
     const int64_t id = add_cam(pool, SE3(), Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z),
@@ -340,7 +340,7 @@ TEST(ModelPredict, NearerSurfelWinsInBothMaps) {
   const double u = 40.125, v = 25.125;  // index pixel (162, 102)
   const Eigen::Vector3d ray((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
   for (bool near_first : {true, false}) {
-    SurfelPool pool = make_pool(10);
+    SurfelPool pool = make_prediction_pool(10);
     int64_t near_id = -1, far_id = -1;
     const Eigen::Vector3d n(0, 0, -1);
     // Radii: near 0.01 m at 1 m = 1.2 px, far 0.08 m at 2 m = 4.8 px (fx = 120).
@@ -365,7 +365,7 @@ TEST(ModelPredict, NearerSurfelWinsInBothMaps) {
 TEST(ModelPredict, UnstableSurfelsOnlyInIndexMap) {
   const Intrinsics K = small_camera();
   const SE3 T_wc = some_pose();
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   fill_plane(pool, K, T_wc, tilted_plane(1.5), 5.0f);  // below the default threshold of 10
   auto p = make_predictor(K);
   ASSERT_TRUE(p.predict(pool, T_wc, 0).ok());
@@ -385,7 +385,7 @@ TEST(ModelPredict, UnstableSurfelsOnlyInIndexMap) {
 TEST(ModelPredict, ActiveWindowLimitsTrackingOnly) {
   const Intrinsics K = small_camera();
   const SE3 T_wc = some_pose();
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   fill_plane(pool, K, T_wc, tilted_plane(1.5), 20.0f);
   for (int64_t i = 0; i < pool.size(); ++i) pool.last_seen()[i] = 10;
   auto p = make_predictor(K);  // window 200
@@ -419,7 +419,7 @@ TEST(ModelPredict, BackFacingSurfelsSkipped) {
   Plane away = tilted_plane(1.5);
   away.n = -away.n;
   away.d = -away.d;  // the same plane, normal pointing away from the camera
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   fill_plane(pool, K, T_wc, away, 20.0f);
   auto p = make_predictor(K);
   ASSERT_TRUE(p.predict(pool, T_wc, 0).ok());
@@ -444,7 +444,7 @@ TEST(ModelPredict, BackFacingSurfelsSkipped) {
 
 TEST(ModelPredict, ClipPlanesAndSurfelsBehindCamera) {
   const Intrinsics K = small_camera();
-  SurfelPool pool = make_pool(10);
+  SurfelPool pool = make_prediction_pool(10);
   const Eigen::Vector3d n(0, 0, -1);
   add_cam(pool, SE3(), Eigen::Vector3d(0, 0, 9.0), n, 0.1, 20);     // beyond far (8 m)
   add_cam(pool, SE3(), Eigen::Vector3d(0, 0, 0.05), n, 0.001, 20);  // nearer than near (0.1 m)
@@ -466,7 +466,7 @@ TEST(ModelPredict, ClipPlanesAndSurfelsBehindCamera) {
 // A disc seen from very close is clipped to the footprint cap instead of covering the image.
 TEST(ModelPredict, SplatFootprintIsCapped) {
   const Intrinsics K = small_camera();
-  SurfelPool pool = make_pool(10);
+  SurfelPool pool = make_prediction_pool(10);
   add_cam(pool, SE3(), Eigen::Vector3d(0, 0, 1.0), Eigen::Vector3d(0, 0, -1), 0.5, 20);  // 60 px radius
   PredictionOptions o;
   o.max_splat_radius_px = 3;
@@ -498,7 +498,7 @@ TEST(ModelPredict, SplatCoversExactlyThePixelsWhoseRayHitsTheDisc) {
     n.normalize();
     if (n.dot(c) > 0) n = -n;                                            // facing the camera
     const double radius = (0.01 + 0.1 * (uni(rng) + 1.0)) * z / 2.0;   // 0.5 to 10.5 cm at 1 m
-    SurfelPool pool = make_pool(4);
+    SurfelPool pool = make_prediction_pool(4);
     add_cam(pool, SE3(), c, n, radius, 20);
     ASSERT_TRUE(p.predict(pool, SE3(), 0).ok());
     // The surfel as stored (float), so that the reference sees the same disc.
@@ -567,7 +567,7 @@ TEST(ModelPredict, CoarseLevelsAndGradientsOfARamp) {
   const Intrinsics K = small_camera();
   const SE3 T_wc = some_pose();
   const Plane plane = tilted_plane(1.8);
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   // Grey = 2 * u (u the working column), so 2 grey levels per level-0 pixel.
   for (int v = 0; v < K.height; ++v)
     for (int u = 0; u < K.width; ++u) {
@@ -692,7 +692,7 @@ TEST(ModelPredict, RoundTripThroughSyntheticFrame) {
     auto pre = Preprocessor::create(s.K);
     ASSERT_TRUE(pre.ok());
     ASSERT_TRUE(pre->process(f).ok());
-    SurfelPool pool = make_pool();
+    SurfelPool pool = make_prediction_pool();
     const int64_t n = surfels_from_frame(pool, *pre, f, T_wc, 10.0f);
     ASSERT_GT(n, s.K.width * s.K.height / 2);
     auto p = make_predictor(s.K);
@@ -765,7 +765,7 @@ TEST(ModelPredict, TrackerAlignsFrameWithPrediction) {
     ASSERT_TRUE(pre_a.ok() && pre_b.ok());
     ASSERT_TRUE(pre_a->process(a).ok());
     ASSERT_TRUE(pre_b->process(b).ok());
-    SurfelPool pool = make_pool();
+    SurfelPool pool = make_prediction_pool();
     const SE3 T_w_a = s.src->poses()[i], T_w_b = s.src->poses()[j];
     surfels_from_frame(pool, *pre_a, a, T_w_a, 10.0f);
     auto p = make_predictor(s.K);
@@ -796,7 +796,7 @@ TEST(ModelPredict, IndexMapAloneEqualsPredictAndKeepsTrackingMaps) {
   Vector6d xi;
   xi << 0.04, -0.02, 0.03, 0.05, -0.03, 0.02;  // 5 cm, about 3.5 degrees away
   const SE3 T_b = T_a * SE3::exp(xi);
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   fill_plane(pool, K, T_a, tilted_plane(1.5), 20.0f);
   fill_plane(pool, K, T_a, tilted_plane(2.5), 3.0f);  // unstable, behind: index map only, and contested
   auto at_b = make_predictor(K);
@@ -851,7 +851,7 @@ TEST(ModelPredict, IndexMapAloneEqualsPredictAndKeepsTrackingMaps) {
 TEST(ModelPredict, EachCallStartsFromScratch) {
   const Intrinsics K = small_camera();
   const SE3 T_wc = some_pose();
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   fill_plane(pool, K, T_wc, tilted_plane(1.5), 20.0f);
   auto p = make_predictor(K);
   ASSERT_TRUE(p.predict(pool, T_wc, 0).ok());
@@ -878,7 +878,7 @@ TEST(ModelPredict, BlockCullingDrawsExactlyWhatAFullPassDraws) {
   turn << 0, 0, 0, 0, M_PI, 0;  // half a turn: the view behind T_a
   Vector6d side;
   side << 0.2, 0, 0, 0, 0.6, 0;  // part of T_a's view
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_prediction_pool();
   fill_plane(pool, K, T_a, tilted_plane(1.5), 20.0f);
   fill_plane(pool, K, T_a * SE3::exp(turn), tilted_plane(2.0), 20.0f);
   const std::vector<int64_t> old = fill_plane(pool, K, T_a, tilted_plane(2.5), 20.0f);

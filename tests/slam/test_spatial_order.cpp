@@ -16,7 +16,7 @@
 namespace ef::slam {
 namespace {
 
-SurfelPool make_pool(int64_t capacity) {
+SurfelPool make_order_pool(int64_t capacity) {
   SurfelPoolOptions o;
   o.capacity = capacity;
   auto p = SurfelPool::create(o);
@@ -71,7 +71,7 @@ std::vector<Snapshot> snapshot(const SurfelPool& pool) {
 
 TEST(SpatialOrder, GroupsSurfelsByCellAndKeepsEverySurfelWhole) {
   constexpr int kN = 5000;
-  SurfelPool pool = make_pool(kN);
+  SurfelPool pool = make_order_pool(kN);
   fill_random(pool, kN, 3);
   const std::vector<Snapshot> before = snapshot(pool);
   SpatialOrderOptions o;
@@ -120,7 +120,7 @@ TEST(SpatialOrder, GroupsSurfelsByCellAndKeepsEverySurfelWhole) {
 
 TEST(SpatialOrder, ReorderOfAnOrderedPoolChangesNothingAndAllocatesNothing) {
   constexpr int kN = 3000;
-  SurfelPool pool = make_pool(kN + 10);
+  SurfelPool pool = make_order_pool(kN + 10);
   fill_random(pool, kN, 11);
   auto order = SpatialOrder::create(kN + 10);
   ASSERT_TRUE(order.ok());
@@ -136,7 +136,7 @@ TEST(SpatialOrder, ReorderOfAnOrderedPoolChangesNothingAndAllocatesNothing) {
 }
 
 TEST(SpatialOrder, EmptyPoolAndPoolBeyondCapacity) {
-  SurfelPool pool = make_pool(100);
+  SurfelPool pool = make_order_pool(100);
   auto small = SpatialOrder::create(10);
   ASSERT_TRUE(small.ok());
   EXPECT_TRUE(small->reorder(pool).ok());  // empty: nothing to do

@@ -62,7 +62,7 @@ IndexMap splat_index(const SurfelPool& pool, const Intrinsics& K, int scale, con
   return m;
 }
 
-SurfelPool make_pool(int64_t capacity = 1'000'000, int32_t evict_unseen = 30) {
+SurfelPool make_fusion_pool(int64_t capacity = 1'000'000, int32_t evict_unseen = 30) {
   SurfelPoolOptions o;
   o.capacity = capacity;
   o.evict_unseen_frames = evict_unseen;
@@ -195,7 +195,7 @@ TEST(SurfelFusion, RejectsMismatchedInputs) {
   const Intrinsics K = ef::test::kinect_320x240();
   const Frame f = flat_frame(K, 1.0, Rgb8{1, 2, 3});
   Preprocessor pre = make_pre(K, f);
-  SurfelPool pool = make_pool(1000);
+  SurfelPool pool = make_fusion_pool(1000);
   SurfelFusion fusion = make_fusion(K, 1000);
   FusionStats st;
   const IndexMap none;
@@ -205,7 +205,7 @@ TEST(SurfelFusion, RejectsMismatchedInputs) {
   Image<Rgb8> small(10, 10);
   EXPECT_FALSE(fusion.fuse(pre, small.view(), SE3(), none, 0, &pool, &st).ok());
   // A pool larger than create() was told.
-  SurfelPool big = make_pool(2000);
+  SurfelPool big = make_fusion_pool(2000);
   EXPECT_FALSE(fusion.fuse(pre, f.color.view(), SE3(), none, 0, &big, &st).ok());
   // A frame of another size.
   SurfelFusion half = make_fusion(K.scaled_to(160, 120), 1000);
@@ -255,7 +255,7 @@ TEST(SurfelFusion, EmptyPoolCreatesOneSurfelPerValidPixel) {
       f.color(x, y) = Rgb8{static_cast<uint8_t>(x / 2), static_cast<uint8_t>(y), static_cast<uint8_t>(x ^ y)};
   Preprocessor pre = make_pre(K, f);
   const SE3 T_wc = SE3::exp((Vector6d() << 0.3, -0.2, 1.1, 0.1, -0.25, 0.4).finished());
-  SurfelPool pool = make_pool(200'000);
+  SurfelPool pool = make_fusion_pool(200'000);
   SurfelFusion fusion = make_fusion(K, 200'000);
   FusionStats st;
   ASSERT_TRUE(fusion.fuse(pre, f.color.view(), T_wc, IndexMap{}, 7, &pool, &st).ok());
@@ -317,7 +317,7 @@ TEST(SurfelFusion, SameFrameTwiceAtTheSamePoseDoesNotDuplicate) {
   const Frame f = render_frame(*src, 10);
   const SE3 pose = src->poses()[10];
   Preprocessor pre = make_pre(K, f);
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_fusion_pool();
   SurfelFusion fusion = make_fusion(K);
   FusionStats st;
   ASSERT_TRUE(fusion.fuse(pre, f.color.view(), pose, IndexMap{}, 10, &pool, &st).ok());
@@ -362,7 +362,7 @@ TEST(SurfelFusion, TwoNoisyFramesOfAPlaneAverageInsteadOfDuplicating) {
   ef::test::render_plane(b, K, 1.5, 15, -10);
   ef::test::add_noise(a.depth, sigma, 1);
   ef::test::add_noise(b.depth, sigma, 2);
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_fusion_pool();
   SurfelFusion fusion = make_fusion(K);
   FusionStats st;
   Preprocessor pa = make_pre(K, a);
@@ -422,7 +422,7 @@ TEST(SurfelFusion, ShiftedPoseAssociatesThroughTheIndexMapOfThePreviousPose) {
   Preprocessor pa = make_pre(p->K, p->a), pb = make_pre(p->K, p->b);
   FusionStats st;
 
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_fusion_pool();
   ASSERT_TRUE(fusion.fuse(pa, p->a.color.view(), p->pose_a, IndexMap{}, 0, &pool, &st).ok());
   const int64_t n0 = pool.size();
   const IndexMap index = splat_index(pool, p->K, 4, p->pose_a);
@@ -442,7 +442,7 @@ TEST(SurfelFusion, ShiftedPoseAssociatesThroughTheIndexMapOfThePreviousPose) {
 
   // Control: the same index map claimed to be rendered at the new pose (no transform between the
   // cameras) associates far worse, so the transform is what made the association work.
-  SurfelPool pool2 = make_pool();
+  SurfelPool pool2 = make_fusion_pool();
   FusionStats st1;
   ASSERT_TRUE(fusion.fuse(pa, p->a.color.view(), p->pose_a, IndexMap{}, 0, &pool2, &st1).ok());
   IndexMap lying = splat_index(pool2, p->K, 4, p->pose_a);
@@ -461,7 +461,7 @@ struct OneSurfelCase {
   Intrinsics K = ef::test::kinect_320x240();
   Frame frame = flat_frame(K, 1.0, Rgb8{200, 100, 50});
   Preprocessor pre = make_pre(K, frame);
-  SurfelPool pool = make_pool(100'000);
+  SurfelPool pool = make_fusion_pool(100'000);
   SurfelFusion fusion = make_fusion(K, 100'000);
   // The measurement of pixel (160, 120).
   Eigen::Vector3f p_m = K.backproject(160, 120, 1.0f);
@@ -553,7 +553,7 @@ TEST(SurfelFusion, OptionsSelectTheDepthAndNormalSources) {
       FusionOptions o;
       o.fuse_raw_depth = raw;
       o.normal_level = level;
-      SurfelPool pool = make_pool(100'000);
+      SurfelPool pool = make_fusion_pool(100'000);
       SurfelFusion fusion = make_fusion(K, 100'000, o);
       FusionStats st;
       ASSERT_TRUE(fusion.fuse(pre, f.color.view(), SE3(), IndexMap{}, 0, &pool, &st).ok());
@@ -583,7 +583,7 @@ TEST(SurfelFusion, OptionsSelectTheDepthAndNormalSources) {
   auto single = Preprocessor::create(K, one_level);
   ASSERT_TRUE(single.ok());
   ASSERT_TRUE(single->process(f).ok());
-  SurfelPool pool = make_pool(100'000);
+  SurfelPool pool = make_fusion_pool(100'000);
   SurfelFusion fusion = make_fusion(K, 100'000, o);
   FusionStats st;
   EXPECT_FALSE(fusion.fuse(*single, f.color.view(), SE3(), IndexMap{}, 0, &pool, &st).ok());
@@ -651,7 +651,7 @@ TEST(SurfelFusion, UnstableSurfelsExpireAfterTheLifetimeStableOnesStay) {
     add_on_ray(pool, K, 120, 100, -1.0f, n, 0.01f, 10.0f, 0, 0);   // stable (= threshold), born at 0
     add_on_ray(pool, K, 140, 100, -1.0f, n, 0.01f, 9.99f, 0, 50);  // unstable, born at 50
   };
-  SurfelPool pool = make_pool(1000);
+  SurfelPool pool = make_fusion_pool(1000);
   setup(pool);
   SurfelFusion fusion = make_fusion(K, 1000);  // lifetime 60 frames
   FusionStats st;
@@ -672,7 +672,7 @@ TEST(SurfelFusion, UnstableSurfelsExpireAfterTheLifetimeStableOnesStay) {
   FusionOptions no_sweep;
   no_sweep.lifetime_sweep_per_frame = 0;
   SurfelFusion lazy = make_fusion(K, 1000, no_sweep);
-  SurfelPool pool2 = make_pool(1000);
+  SurfelPool pool2 = make_fusion_pool(1000);
   setup(pool2);
   ASSERT_TRUE(lazy.fuse(pre, blank.color.view(), SE3(), splat_index(pool2, K, 4, SE3()), 1000, &pool2, &st).ok());
   EXPECT_EQ(pool2.size(), 3);
@@ -727,7 +727,7 @@ struct WallCase {
   Intrinsics K = ef::test::kinect_320x240();
   Frame wall = flat_frame(K, 2.0, Rgb8{50, 60, 70});
   Preprocessor pre = make_pre(K, wall);
-  SurfelPool pool = make_pool(100'000);
+  SurfelPool pool = make_fusion_pool(100'000);
   SurfelFusion fusion = make_fusion(K, 100'000);
   Eigen::Vector3f n = Eigen::Vector3f(0, 0, -1);
 };
@@ -801,7 +801,7 @@ TEST(SurfelFusion, FreeSpaceViolationRemovesUnstableAndDemotesStable) {
 TEST(SurfelFusion, TinyPoolFillsCountsRefusedAndEvicts) {
   auto src = test::open_synth(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
-  SurfelPool pool = make_pool(1000, 30);
+  SurfelPool pool = make_fusion_pool(1000, 30);
   SurfelFusion fusion = make_fusion(K, 1000);
   FusionStats st;
   const Frame f10 = render_frame(*src, 10);
@@ -860,8 +860,8 @@ TEST(SurfelFusion, ZeroHeapAllocationsPerFuseAfterWarmUp) {
     poses.push_back(src->poses()[10 + 2 * i]);
   }
   const Frame f0 = render_frame(*src, 10);
-  SurfelPool pool = make_pool(200'000);
-  SurfelPool tiny = make_pool(1000);
+  SurfelPool pool = make_fusion_pool(200'000);
+  SurfelPool tiny = make_fusion_pool(1000);
   SurfelFusion fusion = make_fusion(K, 200'000);
   FusionStats st;
   ASSERT_TRUE(fusion.fuse(*pres[0], f0.color.view(), poses[0], IndexMap{}, 0, &pool, &st).ok());  // warm-up
@@ -911,7 +911,7 @@ TEST(SurfelFusion, RowGatesGiveTheSameMapAsTestingEachCandidate) {
   Preprocessor& pre = *pre_r;
   FusionOptions cell_by_cell;
   cell_by_cell.row_gates = false;
-  SurfelPool pools[2] = {make_pool(), make_pool()};
+  SurfelPool pools[2] = {make_fusion_pool(), make_fusion_pool()};
   SurfelFusion fusions[2] = {SurfelFusion::create(K, 1, 1'000'000, FusionOptions{}).value(),
                              SurfelFusion::create(K, 1, 1'000'000, cell_by_cell).value()};
   Frame f;
@@ -986,7 +986,7 @@ TEST(SurfelFusion, SequenceWithTruePoses) {
   auto pre_r = Preprocessor::create(K);
   ASSERT_TRUE(pre_r.ok());
   Preprocessor& pre = *pre_r;
-  SurfelPool pool = make_pool();
+  SurfelPool pool = make_fusion_pool();
   SurfelFusion fusion = make_fusion(K);
   Frame f;
   f.allocate(K.width, K.height, true);

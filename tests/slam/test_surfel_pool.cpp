@@ -16,7 +16,7 @@ namespace {
 
 constexpr int kLabelBytes = SurfelPool::kLabelBytesPerSurfel;
 
-SurfelPool make_pool(int64_t capacity, int32_t evict_unseen_frames = 30) {
+SurfelPool make_sized_pool(int64_t capacity, int32_t evict_unseen_frames = 30) {
   SurfelPoolOptions o;
   o.capacity = capacity;
   o.evict_unseen_frames = evict_unseen_frames;
@@ -98,7 +98,7 @@ TEST(SurfelPool, CapacityValidation) {
   EXPECT_EQ(one->size(), 0);
   EXPECT_GE(one->bytes(), SurfelPool::kBytesPerSurfel);
   EXPECT_EQ(SurfelPool::kBytesPerSurfel, 60u);
-  SurfelPool big = make_pool(100'000);
+  SurfelPool big = make_sized_pool(100'000);
   EXPECT_GE(big.bytes(), 100'000 * SurfelPool::kBytesPerSurfel);
   // Columns padded to 64 bytes only, plus the block bounds (one per kBoundsBlock surfels).
   const std::size_t bounds = (100'000 + SurfelPool::kBoundsBlock - 1) / SurfelPool::kBoundsBlock *
@@ -113,7 +113,7 @@ TEST(SurfelPool, CapacityValidation) {
 }
 
 TEST(SurfelPool, AppendWritesEveryColumnAndClearsLabels) {
-  SurfelPool pool = make_pool(4);
+  SurfelPool pool = make_sized_pool(4);
   // Dirty the label bytes of slot 0, then append: they must be cleared ("uniform").
   std::memset(pool.labels(), 0xAB, 4 * kLabelBytes);
   const int64_t id = pool.append(1, 2, 3, 0, 0, -1, 0.01f, 0.5f, pack_rgb(10, 20, 30), 42);
@@ -134,7 +134,7 @@ TEST(SurfelPool, AppendWritesEveryColumnAndClearsLabels) {
 }
 
 TEST(SurfelPool, AppendOnFullPoolRefusesAndCounts) {
-  SurfelPool pool = make_pool(3);
+  SurfelPool pool = make_sized_pool(3);
   for (int i = 0; i < 3; ++i) EXPECT_EQ(append_tagged(pool, i), i);
   EXPECT_TRUE(pool.full());
   EXPECT_EQ(append_tagged(pool, 9), -1);
@@ -147,7 +147,7 @@ TEST(SurfelPool, AppendOnFullPoolRefusesAndCounts) {
 }
 
 TEST(SurfelPool, RemoveMovesTheLastSurfelWithAllColumns) {
-  SurfelPool pool = make_pool(10);
+  SurfelPool pool = make_sized_pool(10);
   for (int i = 0; i < 6; ++i) append_tagged(pool, i);
   pool.remove(1);  // surfel 5 moves into slot 1
   ASSERT_EQ(pool.size(), 5);
@@ -173,7 +173,7 @@ TEST(SurfelPool, RemoveMovesTheLastSurfelWithAllColumns) {
 }
 
 TEST(SurfelPool, RemoveFlaggedKeepsOrderAndColumns) {
-  SurfelPool pool = make_pool(20);
+  SurfelPool pool = make_sized_pool(20);
   for (int i = 0; i < 12; ++i) append_tagged(pool, i);
   std::vector<uint8_t> flags(12, 0);
   for (int i : {0, 3, 4, 9, 11}) flags[i] = 1;
@@ -191,7 +191,7 @@ TEST(SurfelPool, RemoveFlaggedKeepsOrderAndColumns) {
 }
 
 TEST(SurfelPool, CopySurfelCopiesEveryColumn) {
-  SurfelPool pool = make_pool(4);
+  SurfelPool pool = make_sized_pool(4);
   append_tagged(pool, 1);
   append_tagged(pool, 2);
   pool.copy_surfel(1, 0);
@@ -200,7 +200,7 @@ TEST(SurfelPool, CopySurfelCopiesEveryColumn) {
 }
 
 TEST(SurfelPool, PermuteMovesEveryColumnAndKeepsCounters) {
-  SurfelPool pool = make_pool(12);
+  SurfelPool pool = make_sized_pool(12);
   for (int i = 0; i < 9; ++i) append_tagged(pool, i);
   const SurfelPoolCounters before = pool.counters();
   const int32_t old_of_new[9] = {4, 8, 0, 1, 7, 2, 6, 5, 3};
@@ -222,7 +222,7 @@ TEST(SurfelPool, PermuteMovesEveryColumnAndKeepsCounters) {
 //   tag 3..6  unstable, ages 40, 100, 35, 50 (last_seen 160, 100, 165, 150)
 //   tag 7..9  unstable, seen recently (age 5): not evictable
 SurfelPool full_mixed_pool() {
-  SurfelPool pool = make_pool(10, 30);
+  SurfelPool pool = make_sized_pool(10, 30);
   const int32_t last_seen[10] = {0, 20, 190, 160, 100, 165, 150, 195, 195, 195};
   for (int i = 0; i < 10; ++i) {
     append_tagged(pool, i);
@@ -241,7 +241,7 @@ std::vector<int> tags(const SurfelPool& pool) {
 }
 
 TEST(SurfelPool, ReserveWithRoomEvictsNothing) {
-  SurfelPool pool = make_pool(10);
+  SurfelPool pool = make_sized_pool(10);
   for (int i = 0; i < 4; ++i) append_tagged(pool, i);
   EXPECT_EQ(pool.reserve_for_new(6, 500, 10.0f), 6);
   EXPECT_EQ(pool.reserve_for_new(0, 500, 10.0f), 0);
@@ -266,7 +266,7 @@ TEST(SurfelPool, ReserveEvictsOldestUnstableFirst) {
 
 TEST(SurfelPool, ReserveOldestFirstWhenOlderSurfelsHaveLowerIds) {
   // The oldest candidate has the lowest id and an equally old pair above it: the oldest must still go.
-  SurfelPool pool = make_pool(3, 1);
+  SurfelPool pool = make_sized_pool(3, 1);
   for (int i = 0; i < 3; ++i) {
     append_tagged(pool, i);
     pool.confidence()[i] = 1.0f;
@@ -302,7 +302,7 @@ TEST(SurfelPool, ReserveEvictsStableAfterUnstableNeverRecentAndReportsShortfall)
 
 TEST(SurfelPool, ReserveTreatsVeryOldSurfelsAsCandidates) {
   // Ages beyond the histogram's range (1024 frames) still count as the oldest.
-  SurfelPool pool = make_pool(4, 30);
+  SurfelPool pool = make_sized_pool(4, 30);
   for (int i = 0; i < 4; ++i) {
     append_tagged(pool, i);
     pool.confidence()[i] = 1.0f;
@@ -337,7 +337,7 @@ TEST(SurfelPool, ReserveTreatsVeryOldSurfelsAsCandidates) {
 }
 
 TEST(SurfelPool, BlockBoundsHoldTheirSurfelsThroughEveryWriter) {
-  SurfelPool pool = make_pool(5000);
+  SurfelPool pool = make_sized_pool(5000);
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> pos(-3.0f, 3.0f);
   for (int i = 0; i < 3000; ++i)

@@ -22,14 +22,14 @@
 namespace ef::slam {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kDegPerRad = 180.0 / M_PI;
 
 struct PoseError {
   double t_m, r_deg;
 };
 PoseError pose_error(const SE3& est, const SE3& truth) {
   const SE3 d = est.inverse() * truth;
-  return {d.translation().norm(), d.angle() * kRadToDeg};
+  return {d.translation().norm(), d.angle() * kDegPerRad};
 }
 
 Preprocessor make_pre(const Intrinsics& K) {
@@ -96,7 +96,7 @@ void report(const char* name, const Pair& p, const TrackResult& r) {
   const PoseError e = pose_error(r.T_ref_cur, p.truth);
   std::printf("[ tracker ] %-22s motion %.1f mm %.2f deg -> error %.3f mm %.4f deg | icp rms %.2f mm, "
               "inliers %lld (%.2f), rgb %lld rms %.1f, cond %.3g, iters %d%s%s\n",
-              name, p.truth.translation().norm() * 1e3, p.truth.angle() * kRadToDeg, e.t_m * 1e3, e.r_deg,
+              name, p.truth.translation().norm() * 1e3, p.truth.angle() * kDegPerRad, e.t_m * 1e3, e.r_deg,
               r.icp_rms_m * 1e3, static_cast<long long>(r.icp_inliers), r.inlier_fraction,
               static_cast<long long>(r.rgb_inliers), r.rgb_rms_grey, r.condition, r.iterations,
               r.lost ? " LOST: " : "", r.lost ? track_lost_reason_name(r.reason) : "");
@@ -110,8 +110,8 @@ void expect_tracked(const char* name, Pair& p, const TrackResult& r, double max_
   EXPECT_LT(e.r_deg, max_r_deg) << name;
 }
 
-const char* kOfficeClean = "synthetic:office?noise=0&frames=30&size=320x240";
-const char* kOfficeNoisy = "synthetic:office?noise=1&frames=30&size=320x240";
+const char* kTrackOfficeClean = "synthetic:office?noise=0&frames=30&size=320x240";
+const char* kTrackOfficeNoisy = "synthetic:office?noise=1&frames=30&size=320x240";
 
 TEST(Tracker, OptionsValidateAndDescribe) {
   EXPECT_TRUE(TrackerOptions{}.validate().ok());
@@ -193,7 +193,7 @@ TEST(Tracker, RejectsMismatchedPyramids) {
 
 TEST(Tracker, KnownMotionNoiseOff) {
   for (int gap : {1, 3}) {
-    auto p = synth_pair(kOfficeClean, 10, 10 + gap);
+    auto p = synth_pair(kTrackOfficeClean, 10, 10 + gap);
     const TrackResult r = run(*p);
     expect_tracked(gap == 1 ? "clean gap 1" : "clean gap 3", *p, r, 0.002, 0.1);
   }
@@ -201,7 +201,7 @@ TEST(Tracker, KnownMotionNoiseOff) {
 
 TEST(Tracker, KnownMotionNoiseOn) {
   for (int gap : {1, 3}) {
-    auto p = synth_pair(kOfficeNoisy, 10, 10 + gap);
+    auto p = synth_pair(kTrackOfficeNoisy, 10, 10 + gap);
     const TrackResult r = run(*p);
     expect_tracked(gap == 1 ? "noisy gap 1" : "noisy gap 3", *p, r, 0.005, 0.3);
   }
@@ -214,14 +214,14 @@ TEST(Tracker, LivingRoomNoisy) {
 
 TEST(Tracker, PureRotation) {
   const SE3 delta = SE3::exp((Vector6d() << 0, 0, 0, 0.02, -0.03, 0.01).finished());  // ~2.1 deg
-  auto p = synth_pair_at(kOfficeClean, 5, delta);
+  auto p = synth_pair_at(kTrackOfficeClean, 5, delta);
   expect_tracked("pure rotation", *p, run(*p), 0.002, 0.1);
 }
 
 TEST(Tracker, LargerMotionConvergesThroughCoarseLevels) {
   // ~5 cm and ~3 deg between the frames, identity guess.
   const SE3 delta = SE3::exp((Vector6d() << 0.03, -0.025, 0.03, 0.03, 0.035, -0.02).finished());
-  auto p = synth_pair_at(kOfficeClean, 15, delta);
+  auto p = synth_pair_at(kTrackOfficeClean, 15, delta);
   expect_tracked("5 cm / 3 deg", *p, run(*p), 0.003, 0.15);
   // Level 0 alone (no coarse levels, no SO(3) pre-alignment) is the weaker baseline; only printed.
   TrackerOptions fine_only;
@@ -234,7 +234,7 @@ TEST(Tracker, LargerMotionConvergesThroughCoarseLevels) {
 
 TEST(Tracker, IcpOnlyRgbOnlyAndJointConverge) {
   const SE3 delta = SE3::exp((Vector6d() << 0.01, 0.008, -0.012, 0.01, -0.008, 0.012).finished());
-  auto p = synth_pair_at(kOfficeClean, 20, delta);
+  auto p = synth_pair_at(kTrackOfficeClean, 20, delta);
   TrackerOptions icp_only;
   icp_only.rgb_weight = 0;
   const TrackResult ri = run(*p, icp_only);
@@ -252,7 +252,7 @@ TEST(Tracker, IcpOnlyRgbOnlyAndJointConverge) {
 }
 
 TEST(Tracker, LostOnAnotherRoomAndOnBlankDepth) {
-  auto office = test::open_synth(kOfficeNoisy);
+  auto office = test::open_synth(kTrackOfficeNoisy);
   auto kitchen = test::open_synth("synthetic:kitchen?noise=1&frames=30&size=320x240");
   const Intrinsics K = office->info().intrinsics;
   Frame a, b;
@@ -385,7 +385,7 @@ TEST(Tracker, RgbWeightRisesWithTheIcpCondition) {
   // condition number of the ICP term's own system. c is measured by an ICP-only run (its condition
   // is that of the ICP system: scaling a system leaves it unchanged).
   const SE3 delta = SE3::exp((Vector6d() << 0.01, 0.008, -0.012, 0.01, -0.008, 0.012).finished());
-  auto p = synth_pair_at(kOfficeClean, 20, delta);
+  auto p = synth_pair_at(kTrackOfficeClean, 20, delta);
   TrackerOptions icp_only;
   icp_only.rgb_weight = 0;
   const double c_icp = run(*p, icp_only).condition;
@@ -470,7 +470,7 @@ TEST(Tracker, So3PrealignmentWidensTheRotationBasin) {
   for (const Case& c : cases) {
     Vector6d xi = Vector6d::Zero();
     xi.tail<3>() = c.axis.normalized() * (c.deg * M_PI / 180.0);
-    auto p = synth_pair_at(kOfficeClean, 12, SE3::exp(xi));
+    auto p = synth_pair_at(kTrackOfficeClean, 12, SE3::exp(xi));
     TrackerOptions off, on;
     off.so3_prealign = false;
     on.so3_prealign = true;
@@ -493,7 +493,7 @@ TEST(Tracker, So3PrealignmentWidensTheRotationBasin) {
 // and is skipped without colour.
 TEST(Tracker, So3PrealignmentSmallMotionLevelsAndNoColour) {
   const SE3 delta = SE3::exp((Vector6d() << 0, 0, 0, 0.05, -0.06, 0.02).finished());  // ~4.6 deg
-  auto p = synth_pair_at(kOfficeClean, 5, delta);
+  auto p = synth_pair_at(kTrackOfficeClean, 5, delta);
   TrackerOptions coarsest, on;
   coarsest.so3_prealign = true;
   coarsest.so3_level = 2;  // 80x60
@@ -503,7 +503,7 @@ TEST(Tracker, So3PrealignmentSmallMotionLevelsAndNoColour) {
   EXPECT_TRUE(r.so3_applied);
   EXPECT_NEAR(r.so3_rotation_deg, 4.6, 0.5);
 
-  auto same = synth_pair_at(kOfficeClean, 5, SE3());
+  auto same = synth_pair_at(kTrackOfficeClean, 5, SE3());
   const TrackResult rs = run(*same, on);
   expect_tracked("no motion", *same, rs, 1e-4, 0.01);
   EXPECT_LT(rs.so3_rotation_deg, 0.05);
