@@ -46,13 +46,6 @@ class ScopedEnv {
   std::optional<std::string> old_;
 };
 
-// A 24x32-input network with the 14 NYUv2 classes, written once per test.
-fs::path tiny_model(const fs::path& dir) {
-  const fs::path p = dir / "tiny-seg.efm";
-  EXPECT_EQ(test::write_model_file(test::tiny_seg_net(24, 32), p), "");
-  return p;
-}
-
 std::string read_bytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   std::stringstream ss;
@@ -76,7 +69,7 @@ TEST(CliSegment, HelpForEveryNewCommand) {
 // `eval labels` takes them against the converted ground truth.
 TEST(CliSegment, WritesLabelsColourAndProbabilitiesThatEvalLabelsAccepts) {
   const auto dir = test::scratch_dir("cli-segment");
-  const fs::path model = tiny_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   const std::string uri = "synthetic:?frames=3&size=320x240";
   auto r = cli({"segment", "--model", model.string(), "--source", uri, "--out", (dir / "seg").string(),
                 "--probabilities", "--quiet"});
@@ -135,7 +128,7 @@ TEST(CliSegment, WritesLabelsColourAndProbabilitiesThatEvalLabelsAccepts) {
 
 TEST(CliSegment, EveryKthFrameWithoutProbabilities) {
   const auto dir = test::scratch_dir("cli-segment-every");
-  const fs::path model = tiny_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   auto r = cli({"segment", "--model", model.string(), "--source", "synthetic:?frames=5&size=160x120", "--out",
                 (dir / "seg").string(), "--every", "2", "--isa", "scalar", "--threads", "2", "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
@@ -156,7 +149,7 @@ TEST(CliSegment, EveryKthFrameWithoutProbabilities) {
 
 TEST(CliSegment, BadOptionsAreNamed) {
   const auto dir = test::scratch_dir("cli-segment-bad");
-  const fs::path model = tiny_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   auto r = cli({"segment", "--model", model.string(), "--source", "synthetic:", "--out", dir.string(), "--isa", "avx3"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("avx3"), std::string::npos) << r.err;
@@ -202,7 +195,7 @@ TEST(CliSegment, MissingModelIsAClearError) {
 
 TEST(CliModel, InfoPrintsShapesClassesCostsAndKernels) {
   const auto dir = test::scratch_dir("cli-model-info");
-  const fs::path model = tiny_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   auto r = cli({"model", "info", model.string()});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("tiny-seg"), std::string::npos) << r.out;

@@ -31,12 +31,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path tiny_semantic_model(const fs::path& dir) {
-  const fs::path p = dir / "tiny-seg.efm";
-  EXPECT_EQ(test::write_model_file(test::tiny_seg_net(24, 32), p), "");
-  return p;
-}
-
 // The counter `name` of stats.json (-1 when absent).
 double stats_counter(const std::string& stats, const std::string& name) {
   const auto at = stats.find("\"" + name + "\":");
@@ -46,7 +40,7 @@ double stats_counter(const std::string& stats, const std::string& name) {
 
 TEST(CliSemantic, RunFusesLabelsRendersThemAndWritesClassColumns) {
   const auto dir = test::scratch_dir("cli-semantic");
-  const fs::path model = tiny_semantic_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   const std::string uri = "synthetic:bedroom?frames=10&size=160x120";
   auto r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "3",
                 "--labels-out", (dir / "labels").string(), "--labels-out-every", "4", "--out", (dir / "run").string(),
@@ -134,7 +128,7 @@ TEST(CliSemantic, RunFusesLabelsRendersThemAndWritesClassColumns) {
 // renderings must agree pixel for pixel; a pose matched to the wrong frame would not.
 TEST(CliSemantic, FinalLabelsRenderTheFinishedMapAtEachFramesPose) {
   const auto dir = test::scratch_dir("cli-semantic-final");
-  const fs::path model = tiny_semantic_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   const std::string uri = "synthetic:bedroom?frames=12&size=160x120";
   // --frames 9: the second reading stops where the run stopped too (frames 0, 4 and 8 are due).
   auto r = cli({"run", "--source", uri, "--resolution", "160x120", "--model", model.string(), "--label-every", "2",
@@ -186,7 +180,7 @@ TEST(CliSemantic, FinalLabelsRenderTheFinishedMapAtEachFramesPose) {
 // counted, a frame after a "# lost" line gets the CNN's labels alone.
 TEST(FinalLabels, MatchesFramesToTrajectoryLinesByTimestamp) {
   const auto dir = test::scratch_dir("final-labels-match");
-  const fs::path model = tiny_semantic_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   RunConfig config;
   config.run.source = "synthetic:bedroom?frames=6&size=160x120";
   config.run.resolution.width = 160;
@@ -267,7 +261,7 @@ TEST(FinalLabels, MatchesFramesToTrajectoryLinesByTimestamp) {
 // The dense CRF runs every M frames and once more at the end; it changes the map's labels.
 TEST(CliSemantic, CrfEveryMFramesAndAtTheEnd) {
   const auto dir = test::scratch_dir("cli-semantic-crf");
-  const fs::path model = tiny_semantic_model(dir);
+  const fs::path model = test::write_tiny_seg_model(dir);
   const std::string uri = "synthetic:bedroom?frames=10&size=160x120";
   const std::vector<std::string> crf = {"run", "--source", uri, "--resolution", "160x120", "--model", model.string(),
                                         "--label-every", "2", "--crf-every", "4", "--crf-final", "--crf-iterations",

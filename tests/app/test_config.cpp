@@ -505,7 +505,9 @@ TEST(ConfigExample, FixedCoresOnATwoCoreMachineAreNamed) {
     EXPECT_NE(r.err.find("pipeline.cnn_cpu 2, pipeline.mapping_cpu 3"), std::string::npos) << command << ": " << r.err;
   }
   // The shipped example itself passes on the same two cores.
-  if (openni2_built()) EXPECT_EQ(cli({"plan", "--config", kExampleConfig}).code, 0);
+  if (openni2_built()) {
+    EXPECT_EQ(cli({"plan", "--config", kExampleConfig}).code, 0);
+  }
 }
 
 // The README's list of configuration keys is the one `edgefusion plan --keys` prints from the

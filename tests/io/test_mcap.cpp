@@ -36,7 +36,7 @@ const uint8_t* u8p(const std::string& s) { return reinterpret_cast<const uint8_t
 TEST(PngEncoder, SixteenBitGrayDecodesToTheSameSamples) {
   PngEncoder enc(64, 48, 3);
   std::mt19937 rng(5);
-  for (const auto [w, h] : {std::pair{64, 48}, std::pair{1, 1}, std::pair{13, 7}}) {
+  for (const auto& [w, h] : {std::pair{64, 48}, std::pair{1, 1}, std::pair{13, 7}}) {
     Image<uint16_t> img(w, h);
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) img(x, y) = uint16_t((x + y) % 3 == 0 ? rng() : 500 + x * 37 + y * 5);
@@ -229,7 +229,9 @@ TEST(Mcap, ALogCutAtAnyByteReadsUpToItsLastWholeChunk) {
       ASSERT_TRUE(r.read(r.messages()[i], buf).ok());
       ASSERT_EQ(buf, "message " + std::to_string(i) + std::string(i % 17, 'x')) << n;
     }
-    if (!r.complete()) EXPECT_NE(r.warning().find("cut.mcap: the log ends at byte"), std::string::npos);
+    if (!r.complete()) {
+      EXPECT_NE(r.warning().find("cut.mcap: the log ends at byte"), std::string::npos);
+    }
   }
   EXPECT_EQ(last, 40u);
 }

@@ -82,7 +82,9 @@ TEST(OutputsTrajectory, RewriteReplacesCorrectedPosesAndKeepsEverythingElse) {
   TumTrajectoryWriter w;
   ASSERT_TRUE(w.open(path).ok());
   for (int i = 0; i < 6; ++i) {
-    if (i == 2) ASSERT_TRUE(w.write_comment("lost 0.066667 diverged").ok());
+    if (i == 2) {
+      ASSERT_TRUE(w.write_comment("lost 0.066667 diverged").ok());
+    }
     ASSERT_TRUE(w.write(i / 30.0, SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.1 * i, 0, 1))).ok());
   }
   ASSERT_TRUE(w.close().ok());

@@ -2,10 +2,13 @@
 #pragma once
 
 #include <cstdint>
+#include <initializer_list>
 #include <cstring>
 #include <random>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "nn/model_format.h"
 
@@ -118,6 +121,24 @@ inline std::vector<int8_t> make_input(std::size_t n, Fill fill, std::mt19937& rn
     }
   }
   return v;
+}
+
+// Loads `bytes` as "bad.efm" and expects a failure with `code` whose message names the file and holds
+// every one of `parts`.
+inline void expect_rejected(const std::string& bytes, std::initializer_list<const char*> parts,
+                            ErrorCode code = ErrorCode::kCorruptData) {
+  auto m = nn::load_model_memory(bytes.data(), bytes.size(), "bad.efm");
+  ASSERT_FALSE(m.ok()) << "accepted a malformed file";
+  EXPECT_EQ(m.error().code, code) << m.error().message;
+  EXPECT_NE(m.error().message.find("bad.efm"), std::string::npos) << m.error().message;
+  for (const char* p : parts)
+    EXPECT_NE(m.error().message.find(p), std::string::npos) << "missing '" << p << "' in: " << m.error().message;
+}
+
+// Writes `d` unchecked and expects the loader to reject it, and the checked writer to refuse it.
+inline void expect_desc_rejected(const nn::ModelDesc& d, std::initializer_list<const char*> parts) {
+  expect_rejected(nn::serialize_model_unchecked(d), parts);
+  EXPECT_FALSE(nn::serialize_model(d).ok()) << "the checked writer accepted it";
 }
 
 }  // namespace ef::test

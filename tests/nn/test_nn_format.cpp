@@ -13,6 +13,8 @@
 namespace ef::nn {
 namespace {
 
+using test::expect_desc_rejected;
+using test::expect_rejected;
 using test::tiny_net;
 
 TEST(NnFormat, Crc32MatchesZlib) {
@@ -80,21 +82,6 @@ TEST(NnFormat, LoadFromFileAndMissingFile) {
   auto missing = load_model((dir / "none.efm").string());
   ASSERT_FALSE(missing.ok());
   EXPECT_EQ(missing.error().code, ErrorCode::kNotFound);
-}
-
-// Loads `bytes` and expects a failure whose message holds every one of `parts`.
-void expect_rejected(const std::string& bytes, std::initializer_list<const char*> parts, ErrorCode code = ErrorCode::kCorruptData) {
-  auto m = load_model_memory(bytes.data(), bytes.size(), "bad.efm");
-  ASSERT_FALSE(m.ok()) << "accepted a malformed file";
-  EXPECT_EQ(m.error().code, code) << m.error().message;
-  EXPECT_NE(m.error().message.find("bad.efm"), std::string::npos) << m.error().message;
-  for (const char* p : parts) EXPECT_NE(m.error().message.find(p), std::string::npos) << "missing '" << p << "' in: " << m.error().message;
-}
-// Writes `d` unchecked and expects the loader to reject it.
-void expect_desc_rejected(const ModelDesc& d, std::initializer_list<const char*> parts) {
-  expect_rejected(serialize_model_unchecked(d), parts);
-  // The checked writer refuses it too.
-  EXPECT_FALSE(serialize_model(d).ok());
 }
 
 TEST(NnFormat, TruncatedAnywhere) {

@@ -15,23 +15,10 @@
 namespace ef::nn {
 namespace {
 
+using test::expect_desc_rejected;
+using test::expect_rejected;
 using test::layer;
 using test::tensor;
-
-// Loads `bytes` and expects a failure whose message holds every one of `parts`.
-void expect_v2_rejected(const std::string& bytes, std::initializer_list<const char*> parts,
-                     ErrorCode code = ErrorCode::kCorruptData) {
-  auto m = load_model_memory(bytes.data(), bytes.size(), "bad.efm");
-  ASSERT_FALSE(m.ok()) << "accepted a malformed file";
-  EXPECT_EQ(m.error().code, code) << m.error().message;
-  EXPECT_NE(m.error().message.find("bad.efm"), std::string::npos) << m.error().message;
-  for (const char* p : parts)
-    EXPECT_NE(m.error().message.find(p), std::string::npos) << "missing '" << p << "' in: " << m.error().message;
-}
-void expect_v2_desc_rejected(const ModelDesc& d, std::initializer_list<const char*> parts) {
-  expect_v2_rejected(serialize_model_unchecked(d), parts);
-  EXPECT_FALSE(serialize_model(d).ok()) << "the checked writer accepted it";
-}
 
 uint32_t u32_at(const std::string& b, std::size_t pos) {
   uint32_t v = 0;
@@ -103,27 +90,27 @@ TEST(NnFormatResize, RoundTripAndTaps) {
 TEST(NnFormatResize, Refusals) {
   ModelDesc d = resize_net(17, 25, 33, 49);
   d.tensors[1].scale = 0.03f;  // another scale
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "quantisation must match"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "quantisation must match"});
   d = resize_net(17, 25, 33, 49);
   d.tensors[1].zero_point = -2;  // another zero point
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "quantisation must match"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "quantisation must match"});
   d = resize_net(17, 25, 33, 49);
   d.tensors[1].c = 5;  // another channel count (the pointwise layer follows it)
   d.layers[1].weights.resize(5 * 5);
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "changes channels 4 -> 5"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "changes channels 4 -> 5"});
   d = resize_net(17, 25, 33, 49);
   d.layers[0].inputs.push_back(0);
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "2 inputs"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (resize_bilinear)", "2 inputs"});
   d = resize_net(17, 25, 33, 49);
   d.tensors[1].h = kMaxDim + 1;  // output sizes 1..kMaxDim (the tensor checks)
-  expect_v2_desc_rejected(d, {"TENS", "tensor 1", "outside 1..8192"});
+  expect_desc_rejected(d, {"TENS", "tensor 1", "outside 1..8192"});
   // A file of a build that knows no type 11 yet.
   d = resize_net(17, 25, 33, 49);
   std::string bytes = *serialize_model(d);
   const std::size_t layr = test::section_pos(bytes, "LAYR");
   bytes[layr + 12] = 11;  // tag, length, count, then the first record's type byte
   test::fix_crc(bytes);
-  expect_v2_rejected(bytes, {"LAYR", "layer 0", "unknown type 11"});
+  expect_rejected(bytes, {"LAYR", "layer 0", "unknown type 11"});
 }
 
 // --------------------------------------------------------------------------------- global avg pool
@@ -158,27 +145,27 @@ TEST(NnFormatGlobalPool, Refusals) {
   d.tensors[0].h = d.tensors[0].w = 66;
   d.tensors[1].h = d.tensors[1].w = 2;
   d.tensors[2].h = d.tensors[2].w = d.tensors[3].h = d.tensors[3].w = 2;
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "kernel 65x65 outside 1..31", "global average pool"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "kernel 65x65 outside 1..31", "global average pool"});
   // Global in shape but with padding or a stride.
   d = global_pool_net(65);
   d.layers[0].pad_top = 1;
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "kernel 65x65"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "kernel 65x65"});
   d = global_pool_net(65);
   d.layers[0].stride_h = 2;
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "kernel 65x65"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "kernel 65x65"});
   // Above the limit.
   d = global_pool_net(257);
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "outside 1..256"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "outside 1..256"});
   // Max pools keep the 31 limit.
   d = global_pool_net(33);
   d.layers[0].type = LayerType::kMaxPool;
   d.tensors[1].scale = d.tensors[0].scale;
   d.tensors[1].zero_point = d.tensors[0].zero_point;
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (max_pool)", "outside 1..31"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (max_pool)", "outside 1..31"});
   // The one multiplier is still checked.
   d = global_pool_net(65);
   d.tensors[1].scale = 1e-30f;
-  expect_v2_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "window of 4225"});
+  expect_desc_rejected(d, {"LAYR", "layer 0 (avg_pool)", "window of 4225"});
 }
 
 // ---------------------------------------------------------------------------------------- class map
@@ -237,27 +224,27 @@ TEST(NnFormatClassMap, RoundTripAsVersion2) {
 TEST(NnFormatClassMap, Refusals) {
   ModelDesc d = mapped_net();
   d.class_map[3] = 14;  // 14 target classes: ids 0..13
-  expect_v2_desc_rejected(d, {"CMAP", "output channel 3 maps to class 14", "14 target classes"});
+  expect_desc_rejected(d, {"CMAP", "output channel 3 maps to class 14", "14 target classes"});
   d = mapped_net();
   d.class_map.push_back(1);
-  expect_v2_desc_rejected(d, {"CMAP", "6 map entries", "5 channels"});
+  expect_desc_rejected(d, {"CMAP", "6 map entries", "5 channels"});
   d = mapped_net();
   d.target_class_names.clear();
-  expect_v2_rejected(serialize_model_unchecked(d), {"CMAP", "target class"});
+  expect_rejected(serialize_model_unchecked(d), {"CMAP", "target class"});
   EXPECT_FALSE(serialize_model(d).ok());
   d = mapped_net();
   d.class_map.clear();
-  expect_v2_rejected(serialize_model_unchecked(d), {"CMAP"});
+  expect_rejected(serialize_model_unchecked(d), {"CMAP"});
   EXPECT_FALSE(serialize_model(d).ok());
   d = mapped_net();
   d.target_class_names[2] = "";
-  expect_v2_desc_rejected(d, {"CMAP", "target class 2", "empty"});
+  expect_desc_rejected(d, {"CMAP", "target class 2", "empty"});
   d = mapped_net();
   d.target_class_names[2] = std::string(64, 'x');
-  expect_v2_desc_rejected(d, {"CMAP", "target class 2", "63"});
+  expect_desc_rejected(d, {"CMAP", "target class 2", "63"});
   d = mapped_net();
   d.target_class_names.assign(kMaxClasses + 1, "t");
-  expect_v2_desc_rejected(d, {"CMAP", "257 target classes"});
+  expect_desc_rejected(d, {"CMAP", "257 target classes"});
 }
 
 TEST(NnFormatClassMap, FramingRefusals) {
@@ -268,34 +255,34 @@ TEST(NnFormatClassMap, FramingRefusals) {
   std::string b = v2.substr(0, cmap);
   test::put_u32(b, 8, static_cast<uint32_t>(b.size() - kEfmHeaderBytes));
   test::fix_crc(b);
-  expect_v2_rejected(b, {"CMAP", "truncated"});
+  expect_rejected(b, {"CMAP", "truncated"});
   // Version 1 with a CMAP section: bytes after the last section.
   b = v2;
   test::put_u32(b, 4, kEfmVersion);
   test::fix_crc(b);
-  expect_v2_rejected(b, {"payload", "after the last section"});
+  expect_rejected(b, {"payload", "after the last section"});
   // A version this build does not read.
   b = v2;
   test::put_u32(b, 4, 3);
-  expect_v2_rejected(b, {"header", "version 3"}, ErrorCode::kUnsupported);
+  expect_rejected(b, {"header", "version 3"}, ErrorCode::kUnsupported);
   // Counts: no targets, more entries than the section holds, trailing bytes.
   b = v2;
   test::put_u32(b, cmap + 8, 0);
   test::fix_crc(b);
-  expect_v2_rejected(b, {"CMAP", "0 target classes"});
+  expect_rejected(b, {"CMAP", "0 target classes"});
   const std::size_t entries = v2.size() - 5 - 4;
   b = v2;
   test::put_u32(b, entries, 6);
   test::fix_crc(b);
-  expect_v2_rejected(b, {"CMAP", "truncated"});
+  expect_rejected(b, {"CMAP", "truncated"});
   b = v2;
   test::put_u32(b, entries, 4);
   test::fix_crc(b);
-  expect_v2_rejected(b, {"CMAP", "1 unexpected bytes"});
+  expect_rejected(b, {"CMAP", "1 unexpected bytes"});
   b = v2;
   test::put_u32(b, entries, 0);
   test::fix_crc(b);
-  expect_v2_rejected(b, {"CMAP", "0 map entries"});
+  expect_rejected(b, {"CMAP", "0 map entries"});
   // Cut anywhere inside CMAP with a consistent header: always refused.
   for (std::size_t n = cmap; n < v2.size(); ++n) {
     std::string cut = v2.substr(0, n);

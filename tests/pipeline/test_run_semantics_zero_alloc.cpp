@@ -59,9 +59,13 @@ TEST(RunSemanticsZeroAlloc, SegmentFuseAndRenderAllocateNothingPerFrame) {
     // Even frames: the CNN's result is there when the frame is mapped. Odd frames: it is queued
     // after, and fused while the next frame is mapped, at this one's pose.
     const bool on_time = i % 2 == 0;
-    if (on_time) ASSERT_TRUE((*cnn)->offer(frame, i, /*fuse=*/true, /*wait=*/true));
+    if (on_time) {
+      ASSERT_TRUE((*cnn)->offer(frame, i, /*fuse=*/true, /*wait=*/true));
+    }
     ASSERT_TRUE((*sem)->on_frame(i, frame, on_time, result, *slam, **cnn).ok());
-    if (!on_time) ASSERT_TRUE((*cnn)->offer(frame, i, /*fuse=*/true, /*wait=*/true));
+    if (!on_time) {
+      ASSERT_TRUE((*cnn)->offer(frame, i, /*fuse=*/true, /*wait=*/true));
+    }
     const auto& fused = (*sem)->last_fused();
     EXPECT_EQ(fused.frame, on_time ? i : i - 1) << "frame " << i;
     // The rendering --labels-out writes (the PNG encoder itself is outside the per-frame path).

@@ -3,6 +3,8 @@
 // input) with three layers and random weights.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -59,6 +61,13 @@ inline std::string write_model_file(const nn::ModelDesc& desc, const std::filesy
   std::ofstream out(path, std::ios::binary);
   out.write(bytes->data(), static_cast<std::streamsize>(bytes->size()));
   return out ? "" : "cannot write " + path.string();
+}
+
+// tiny_seg_net(24, 32) (a 24x32 input, the 14 NYUv2 classes) written to dir/tiny-seg.efm: its path.
+inline std::filesystem::path write_tiny_seg_model(const std::filesystem::path& dir) {
+  const std::filesystem::path p = dir / "tiny-seg.efm";
+  EXPECT_EQ(write_model_file(tiny_seg_net(24, 32), p), "");
+  return p;
 }
 
 }  // namespace ef::test
