@@ -87,6 +87,7 @@ class NotifySocket {
 };
 
 TEST(CliService, NotifiesReadyAliveAndStopping) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   if (!ServiceNotifier::built_with_systemd()) GTEST_SKIP() << "built without libsystemd (libsystemd-dev)";
   const auto dir = test::scratch_dir("cli-service-notify");
   // A watchdog of 40 ms: a ping is due every 10 ms of mapping, so a run of 60 frames sends several.
@@ -124,6 +125,7 @@ TEST(CliService, WithoutNotifySocketNothingIsSent) {
 // of issue 29 show that), so the next start continues it in its folder. A run that ended is not
 // continued: the next start makes a new folder.
 TEST(CliService, ContinuesTheInterruptedRunAfterAPowerCut) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-service-resume");
   const std::string out = (dir / "runs" / "{time}").string();
   const std::vector<std::string> base = {"run", "--source", "synthetic:?frames=40&size=160x120", "--resolution",

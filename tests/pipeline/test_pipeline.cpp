@@ -129,10 +129,14 @@ TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
   if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   const auto dir = test::scratch_dir("pipeline-threads");
   const std::string model = tiny_model(dir);
+  // The sanitizers' short form: 20 frames (4 CNN passes) for each of the six runs; 40 took 54 s
+  // under TSan (stop 48).
+  constexpr int kFrames = test::frames_native_or_emulated(40, 20);
+  constexpr uint64_t kCnnFrames = kFrames / 5;  // frames 0, 5, 10, ... (update_every_n_frames 5)
   for (const bool deterministic : {true, false}) {
     std::string trajectory[3], map[3];
     for (int threads = 1; threads <= 3; ++threads) {
-      LoopSource source(12, 40);
+      LoopSource source(12, kFrames);
       StageStats stats;
       const auto out = dir / ("t" + std::to_string(threads) + (deterministic ? "d" : "a"));
       pipeline::RunConfig config = small_run(out, model, threads);
@@ -142,21 +146,21 @@ TEST(Pipeline, OneTwoAndThreeThreadsGiveIdenticalOutputs) {
       pipeline::RunObserver none;
       const pipeline::RunOutcome outcome = (*p)->run(none);
       EXPECT_FALSE(outcome.error.has_value()) << to_string(*outcome.error);
-      EXPECT_EQ(outcome.frames, 40);
+      EXPECT_EQ(outcome.frames, kFrames);
       const pipeline::OutputFiles files = (*p)->write_outputs(outcome);
       EXPECT_TRUE(files.errors.empty());
       const uint64_t cnn_frames = stats.counter(stats.counter_id("cnn_frames"));
       const uint64_t skipped = stats.counter(stats.counter_id("cnn_frames_skipped"));
       if (deterministic || threads == 1) {
-        EXPECT_EQ(cnn_frames, 8u);  // frames 0, 5, ..., 35
+        EXPECT_EQ(cnn_frames, kCnnFrames);
         EXPECT_EQ(skipped, 0u);
       } else {
-        EXPECT_EQ(cnn_frames + skipped, 8u) << "every request is served or counted as skipped";
+        EXPECT_EQ(cnn_frames + skipped, kCnnFrames) << "every request is served or counted as skipped";
       }
       trajectory[threads - 1] = read_file(files.trajectory);
       map[threads - 1] = read_file(files.map);
     }
-    EXPECT_GT(trajectory[0].size(), 40u * 20);
+    EXPECT_GT(trajectory[0].size(), std::size_t(kFrames) * 20);
     EXPECT_GT(map[0].size(), 10'000u);
     for (int t = 1; t < 3; ++t) {
       EXPECT_EQ(trajectory[0], trajectory[t]) << t + 1 << " threads";
@@ -174,7 +178,8 @@ TEST(Pipeline, SlowCnnNeitherHoldsMappingBackNorFusesAtTheWrongPose) {
   if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   const auto dir = test::scratch_dir("pipeline-slow-cnn");
   const std::string model = tiny_model(dir);
-  constexpr int kFrames = 120;
+  // 60 frames in the sanitizers' short form (30 requests, a few served): 120 took 36 s under TSan.
+  constexpr int kFrames = test::frames_native_or_emulated(120, 60);
   // Mapping rate without labels, the reference.
   double plain_seconds = 0;
   {
@@ -241,7 +246,9 @@ TEST(Pipeline, SlowCnnNeitherHoldsMappingBackNorFusesAtTheWrongPose) {
 // CNN every 5th frame; the global counter sees the front and CNN threads too.
 TEST(Pipeline, ThreeThousandFramesOnThreeThreadsAllocateNothing) {
   ASSERT_TRUE(test::allocation_counting_enabled());
-  constexpr int64_t kFrames = test::kShortForm ? 300 : 3000;  // qemu and the sanitizers: 5-60x slower
+  // qemu and the sanitizers (5-60x slower): 100 frames, 20 CNN passes and label fusions, every step
+  // on its thread past its warm-up; 300 took a minute under qemu and under TSan each (stop 48).
+  constexpr int64_t kFrames = test::kShortForm ? 100 : 3000;
   constexpr int64_t kWarmUp = 10;  // first frames: dispatch choices, the map's first growth
   // The source goes on past the counted frames: when the front and CNN threads end, OpenCV's
   // thread-local storage allocates in its destructor (once per thread, not per frame).
@@ -362,7 +369,9 @@ TEST(Pipeline, RealtimeCountsTheFramesTheMachineReleasesLate) {
 // outputs' error, the other outputs complete.
 TEST(Pipeline, APreviewACheckpointCannotWriteDoesNotStopTheMapping) {
   const auto dir = test::scratch_dir("pipeline-preview-blocked");
-  constexpr int64_t kFrames = 50;
+  // 20 frames in the short form (qemu, sanitizers), whose frames take longer than the 0.1 s between
+  // checkpoints by themselves: 50 took 30 s under TSan and 22 s under qemu.
+  constexpr int64_t kFrames = test::frames_native_or_emulated(50, 20);
   LoopSource paced(12, kFrames, /*live=*/false, std::nullopt, std::chrono::milliseconds(10));  // 0.5 s
   StageStats stats;
   pipeline::RunConfig c = small_run(dir, tiny_model(dir), 2);
