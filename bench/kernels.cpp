@@ -174,11 +174,11 @@ int main(int argc, char** argv) {
   {
     constexpr int kW = 320, kH = 240, kR = 2;
     std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-    std::vector<float> padded((kW + 2 * kR) * (kH + 2 * kR), 1.0e6f), raw(kW * kH), out(kW * kH), spatial(25);
+    std::vector<float> padded((kW + 2 * kR) * (kH + 2 * kR), 1.0e6f), raw_depth(kW * kH), out(kW * kH), spatial(25);
     for (int y = 0; y < kH; ++y)
       for (int x = 0; x < kW; ++x) {
         const float d = 2.0f + 0.01f * u(rng);
-        raw[y * kW + x] = d;
+        raw_depth[y * kW + x] = d;
         padded[(y + kR) * (kW + 2 * kR) + x + kR] = d;
       }
     for (int k = 0; k < 25; ++k) spatial[k] = 0.5f + 0.02f * static_cast<float>(k);
@@ -198,7 +198,7 @@ int main(int argc, char** argv) {
             b.k8 = 1.0f / (16.0f * 0.03f * 0.03f);
             for (int y = 0; y < kH; ++y) {
               for (int k = 0; k <= 2 * kR; ++k) rows[k] = padded.data() + (y + k) * (kW + 2 * kR);
-              b.raw = raw.data() + y * kW;
+              b.raw = raw_depth.data() + y * kW;
               v.fn(b, kW, out.data() + y * kW);
             }
           },

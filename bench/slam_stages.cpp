@@ -255,7 +255,7 @@ int main(int argc, char** argv) {
       if (r.fused)
         for (int k = 0; k < 6; ++k) win[k].push_back(sample[k]);
       if ((frames + 1) % window == 0) {
-        char span[32];
+        char span[48];  // two 64-bit frame numbers and a dash
         std::snprintf(span, sizeof(span), "%lld-%lld", static_cast<long long>(frames + 1 - window),
                       static_cast<long long>(frames));
         std::printf("  %-13s %9lld %8.2f %8.2f %8.2f %8.2f %8.2f %7.0f%%\n", span,

@@ -4,7 +4,9 @@
 // Panels of 16 output channels (one zmm of accumulators); layout [tap][cin/4][16][4] int8.
 // GCC 12's AVX-512 headers pass _mm512_undefined_ps() as the unused merge source of unmasked
 // intrinsics, which -Werror=uninitialized reports as maybe-uninitialized (GCC PR 105593).
+#ifndef __clang__  // a GCC warning group: clang has none of that name
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <immintrin.h>
 
 #include <cstring>

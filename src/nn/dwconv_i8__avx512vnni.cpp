@@ -24,7 +24,6 @@ constexpr __mmask16 kAll16 = static_cast<__mmask16>(0xFFFF);
 #define EF_DW_UNSHUFFLE 0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15
 
 struct Zmm {
-  static constexpr int kBytes = 64;
   using V = __m512i;
   using M = __mmask64;
   static M mask(int n) { return n >= 64 ? ~M{0} : (M{1} << n) - 1; }
@@ -50,7 +49,6 @@ struct Zmm {
 };
 
 struct Ymm {
-  static constexpr int kBytes = 32;
   using V = __m256i;
   using M = __mmask32;
   static M mask(int n) { return n >= 32 ? ~M{0} : (M{1} << n) - 1; }

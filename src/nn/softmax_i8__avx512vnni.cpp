@@ -7,7 +7,9 @@
 // GCC 12 warns (-Wmaybe-uninitialized, and -Wuninitialized at -O1, an error in the debug build) about
 // the unmasked forms of several AVX-512 intrinsics, which merge into _mm512_undefined_*(); the
 // warning is false (every lane is written).
+#ifndef __clang__  // a GCC warning group: clang has none of that name
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #pragma GCC diagnostic ignored "-Wuninitialized"
 
 #include "nn/eltwise_kernels.h"

@@ -21,17 +21,6 @@ constexpr float kPi = 3.14159265358979f;
 
 using Clock = SteadyClock;
 
-// exp(-t) for t >= 0 approximated by (1 + t/8)^-8 (u = 1 + t/8 is passed in): at most 0.03 away
-// from exp(-t), positive, and below 1e-10 for the t of a 0.5 m step at sigma 3 cm (t ~ 139). No
-// comparison and no branch, so the bilateral loop vectorises (GCC, under its default
-// -ftrapping-math, does not if-convert conditional float arithmetic); huge u overflow to a weight of
-// exactly 0, which is how invalid neighbours drop out (see kInvalidDepthSentinel).
-inline float inverse_eighth_power(float u) {
-  const float u2 = u * u;
-  const float u4 = u2 * u2;
-  return 1.0f / (u4 * u4);
-}
-
 // Invalid depths are stored as this (metres) in the bilateral filter's padded input: its difference
 // to any real depth gives a range weight of exactly 0 (u^8 overflows to infinity).
 constexpr float kInvalidDepthSentinel = 1.0e6f;

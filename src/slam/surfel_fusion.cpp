@@ -308,7 +308,9 @@ void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
   const Eigen::Vector3f t_ic = fc.t_ic;
   const Intrinsics Ki = fc.Ki;
   // The row buffers are this object's own and never alias the frame's images.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC ivdep
+#endif
   for (int x = 0; x < w; ++x) {
     Eigen::Vector3f v, n_c;
     const float n1[3] = {kCoarse ? c1x[x] : 0.0f, kCoarse ? c1y[x] : 0.0f, kCoarse ? c1z[x] : 0.0f};

@@ -104,11 +104,7 @@ std::string read_file(const std::filesystem::path& p) {
   return s.str();
 }
 
-std::string tiny_model(const std::filesystem::path& dir) {
-  const auto model = dir / "tiny.efm";
-  EXPECT_EQ(test::write_model_file(test::tiny_seg_net(24, 32), model), "");
-  return model.string();
-}
+std::string tiny_model(const std::filesystem::path& dir) { return test::write_tiny_seg_model(dir).string(); }
 
 // Stops the run after `stop_after` mapped frames (never when < 0).
 class StopAfter : public pipeline::RunObserver {

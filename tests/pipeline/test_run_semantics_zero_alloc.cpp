@@ -25,8 +25,7 @@ namespace {
 TEST(RunSemanticsZeroAlloc, SegmentFuseAndRenderAllocateNothingPerFrame) {
   ASSERT_TRUE(test::allocation_counting_enabled());
   const auto dir = test::scratch_dir("run-semantics-zero-alloc");
-  const auto model = dir / "tiny.efm";
-  ASSERT_EQ(test::write_model_file(test::tiny_seg_net(24, 32), model), "");
+  const auto model = test::write_tiny_seg_model(dir);
 
   auto source = open_source("synthetic:?frames=10&size=160x120");
   ASSERT_TRUE(source.ok());

@@ -48,8 +48,7 @@ nn::Model load(const nn::ModelDesc& d) {
 
 TEST(Segmenter, CreatedFromAFileWithTheModelsSizes) {
   const auto dir = test::scratch_dir("seg-file");
-  const auto path = dir / "tiny.efm";
-  ASSERT_EQ(test::write_model_file(test::tiny_seg_net(24, 32), path), "");
+  const auto path = test::write_tiny_seg_model(dir);
   auto s = Segmenter::create(path.string());
   ASSERT_TRUE(s.ok()) << to_string(s.error());
   Segmenter& seg = **s;
