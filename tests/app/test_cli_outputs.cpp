@@ -555,6 +555,7 @@ TEST(CliOutputs, ARunsFieldLogReplaysToTheSameTrajectory) {
 // SIGKILL during a run with a field log: the log reads up to its last whole chunk, with our reader,
 // the mcap: source and @mcap/core's streaming reader alike.
 TEST(CliOutputs, SigkillLeavesAFieldLogReadableUpToItsLastChunk) {
+  if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   const auto dir = test::scratch_dir("cli-outputs-log-kill");
   const fs::path out = dir / "run";
   const fs::path log_path = out / "log.mcap";
