@@ -23,6 +23,7 @@
 
 #include "kernels/kernel_test_util.h"
 #include "nn/eltwise_kernels.h"
+#include "nn/nn_test_util.h"
 
 namespace ef::nn {
 namespace {
@@ -334,19 +335,18 @@ TEST(EltwiseVariants, MaxPoolLargeWindows) {
 
 // ------------------------------------------------------------------------------------------ avgpool
 
-// Inputs: random, all -128, or all 127 (the extremes of the window sums).
-enum class EltwiseFill { kRandom, kMin, kMax };
+// Inputs (test::Fill): random, all -128, or all 127 (the extremes of the window sums).
+using ef::test::Fill;
 
 // Runs every avgpool variant on the case; the multipliers per window size are the loader's:
 // m_n = float(ratio / n), ratio = s_in / s_out.
 void check_avgpool(const PoolCase& k, std::mt19937& rng, int32_t zi, int32_t zo, double ratio,
-                   EltwiseFill fill = EltwiseFill::kRandom) {
+                   Fill fill = Fill::kRandom) {
   ASSERT_GE(k.h + k.pt + k.pb, k.kh) << k.str();
   ASSERT_GE(k.w + k.pl + k.pr, k.kw) << k.str();
   const int oh = k.out_h(), ow = k.out_w();
   const std::size_t in_n = std::size_t(k.h) * k.w * k.c, out_n = std::size_t(oh) * ow * k.c;
-  const std::vector<int8_t> in = fill == EltwiseFill::kRandom ? random_bytes(in_n, rng)
-                                                       : std::vector<int8_t>(in_n, fill == EltwiseFill::kMin ? -128 : 127);
+  const std::vector<int8_t> in = ef::test::make_input(in_n, fill, rng);
   std::vector<Requant> by_count(std::size_t(k.kh) * k.kw);
   for (std::size_t n = 1; n <= by_count.size(); ++n) by_count[n - 1].multiplier = static_cast<float>(ratio / double(n));
   PoolArgs p;
@@ -387,8 +387,8 @@ TEST(EltwiseVariants, AvgPoolCommonShapes) {
     check_avgpool(k, rng, zp(rng), zp(rng), log_uniform(rng, -3, 3));
     k.sh = k.sw = 1;  // 3x3 s1 pad 1
     check_avgpool(k, rng, zp(rng), zp(rng), log_uniform(rng, -3, 3));
-    check_avgpool(k, rng, 0, 0, 1.0, EltwiseFill::kMin);
-    check_avgpool(k, rng, -128, 127, 1.0, EltwiseFill::kMax);
+    check_avgpool(k, rng, 0, 0, 1.0, Fill::kMin);
+    check_avgpool(k, rng, -128, 127, 1.0, Fill::kMax);
   }
 }
 
@@ -406,8 +406,8 @@ TEST(EltwiseVariants, AvgPoolTiesAndSaturation) {
     for (double ratio : {0.5, 1.0, 2.0, 0.25}) check_avgpool(k, rng, zp(rng), zp(rng), ratio);
     for (double ratio : {64.0, 4096.0, 1e6}) {  // every output saturates at -128 or 127
       check_avgpool(k, rng, zp(rng), zp(rng), ratio);
-      check_avgpool(k, rng, -128, 127, ratio, EltwiseFill::kMax);
-      check_avgpool(k, rng, 127, -128, ratio, EltwiseFill::kMin);
+      check_avgpool(k, rng, -128, 127, ratio, Fill::kMax);
+      check_avgpool(k, rng, 127, -128, ratio, Fill::kMin);
     }
   }
 }
@@ -440,8 +440,8 @@ TEST(EltwiseVariants, AvgPoolAsymmetricAndLargeWindows) {
     k.kh = 31;  // global 31 x 31 pool: sums up to 961 * 255
     k.kw = 31;
     check_avgpool(k, rng, zp(rng), zp(rng), 1.0);
-    check_avgpool(k, rng, -128, 0, 1.0, EltwiseFill::kMax);
-    check_avgpool(k, rng, 127, 0, 1.0, EltwiseFill::kMin);
+    check_avgpool(k, rng, -128, 0, 1.0, Fill::kMax);
+    check_avgpool(k, rng, 127, 0, 1.0, Fill::kMin);
   }
 }
 
