@@ -428,7 +428,8 @@ const char* const kOffice600 = "synthetic:office?noise=1&frames=600&size=320x240
 // the normal tracking, looked up among the keyframes and found again at the right place.
 TEST(SurfelSlam, KidnappedCameraIsRelocalisedAtAKeyframe) {
   // The short form (qemu, sanitizers) takes the same path at twice the speed, 23 frames: 45 frames of
-  // the 600-frame path were the longest test under qemu (58 s, stop 49). Natively both pass.
+  // the 600-frame path were the longest test under qemu (58 s, stop 49). The short form passes
+  // natively too.
   constexpr int kBefore = test::frames_native_or_emulated(90, 23);
   const char* const uri = test::kShortForm ? "synthetic:office?noise=1&frames=300&size=320x240" : kOffice600;
   const std::vector<Frame> frames = load_frames(uri, kBefore);
