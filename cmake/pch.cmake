@@ -1,0 +1,48 @@
+# A precompiled header for the modules whose files include Eigen (io, synth, slam, semantic, pipeline,
+# sources, devices, the program and the benches): Eigen and the standard headers most files include,
+# parsed once per build instead of once per file (about 1.5-2 s of each such file's compile).
+#
+# One header, built once (target ef_pch) and reused by every module whose flags allow it; a module
+# whose own flags change what the header means gets a copy of its own: -fno-math-errno (slam) defines
+# __NO_MATH_ERRNO__, and both GCC and clang refuse a header built without it. Files compiled with
+# their own instruction-set flags (`name__avx2.cpp`, cmake/isa.cmake) never use it: the header is
+# built for the baseline ISA. Modules without Eigen in most of their files (kernels, nn, core, cpu)
+# do not use it: loading the header costs about 0.4 s, more than their files' parse.
+# -Winvalid-pch: a header the compiler refuses is a warning (an error with EF_WERROR), never a silent
+# fall-back to parsing every file again.
+#   EF_PCH=OFF   plain builds (for example to check that each file includes what it uses)
+option(EF_PCH "Precompile Eigen and the common standard headers for the modules that include Eigen" ON)
+
+set(EF_PCH_HEADERS
+    <Eigen/Core> <Eigen/Geometry>
+    <algorithm> <array> <chrono> <cmath> <cstddef> <cstdint> <cstdio> <cstdlib> <cstring>
+    <filesystem> <limits> <memory> <optional> <sstream> <string> <string_view> <utility> <vector>)
+
+if(EF_PCH)
+  file(WRITE "${CMAKE_BINARY_DIR}/ef_pch_anchor.cpp" "// the precompiled header's own target\n")
+  add_library(ef_pch OBJECT "${CMAKE_BINARY_DIR}/ef_pch_anchor.cpp")
+  target_link_libraries(ef_pch PRIVATE Eigen3::Eigen)
+  target_precompile_headers(ef_pch PRIVATE ${EF_PCH_HEADERS})
+endif()
+
+# ef_target_pch(<target>): <target> compiles with the precompiled header (after its compile options
+# are set: a target with -fno-math-errno gets its own copy).
+function(ef_target_pch target)
+  if(NOT EF_PCH)
+    return()
+  endif()
+  get_target_property(options ${target} COMPILE_OPTIONS)
+  if(options AND "-fno-math-errno" IN_LIST options)
+    target_precompile_headers(${target} PRIVATE ${EF_PCH_HEADERS})
+  else()
+    target_precompile_headers(${target} REUSE_FROM ef_pch)
+  endif()
+  target_compile_options(${target} PRIVATE -Winvalid-pch)
+  get_target_property(srcs ${target} SOURCES)
+  foreach(src IN LISTS srcs)
+    get_source_file_property(src_options "${src}" COMPILE_OPTIONS)
+    if(src_options MATCHES "(^|;)-m")
+      set_source_files_properties("${src}" PROPERTIES SKIP_PRECOMPILE_HEADERS ON)
+    endif()
+  endforeach()
+endfunction()
