@@ -2,7 +2,7 @@
 // open_source(URI), each frame resampled to the working resolution (resample_frame), then
 // SurfelSlam::process with the default options (those of `edgefusion run` without a config file).
 //   bench_slam_stages [--source URI] [--frames N] [--resolution WxH] [--warmup N] [--associate tracked|previous]
-//                     [--window N]
+//                     [--window N] [--fusion-stride 1|2]
 // Defaults: the 7-Scenes redkitchen sequence of the shared data when present, else
 // synthetic:?frames=1000; every frame; 320x240; 10 warm-up frames; fusion associating through an
 // index map at the tracked pose (SurfelSlamOptions::associate_at_tracked_pose; previous = false).
@@ -11,6 +11,7 @@
 // clock, SlamFrameResult::timings; track over frames after the first, fuse over fused frames), the
 // thread CPU time of process(), the surfels at the end, lost frames and, when the source has
 // reference poses, the ATE RMSE (TUM conventions, eval/trajectory_eval.h) over every frame.
+// --fusion-stride 2 fuses every other pixel of every other row (FusionOptions::pixel_stride).
 // --window N also prints, for every N frames, the medians of the four stages and their sum, the
 // surfels at the window's end and the share of pool blocks predict visited (how the cost grows with
 // the map: bench/slam_growth.sh). One thread: SurfelSlam is single threaded. Exit 2: bad options or a source that cannot be opened.
@@ -96,13 +97,14 @@ int usage(const char* why) {
   if (why) std::fprintf(stderr, "bench_slam_stages: %s\n", why);
   std::fprintf(stderr,
                "usage: bench_slam_stages [--source URI] [--frames N] [--resolution WxH] [--warmup N]\n"
-               "                         [--associate tracked|previous] [--window N]\n"
+               "                         [--associate tracked|previous] [--window N] [--fusion-stride 1|2]\n"
                "  --source URI       default %s\n"
                "  --frames N         frames to process, default every frame of the source\n"
                "  --resolution WxH   working resolution, default 320x240\n"
                "  --warmup N         first frames left out of the stage statistics, default 10\n"
                "  --associate WHERE  fusion's index map: at the tracked pose (default) or the previous one\n"
-               "  --window N         also print the stage medians of every N frames (default 0: none)\n",
+               "  --window N         also print the stage medians of every N frames (default 0: none)\n"
+               "  --fusion-stride S  fuse every pixel (1, default) or every other of every other row (2)\n",
                default_source().c_str());
   return 2;
 }
@@ -136,6 +138,9 @@ int main(int argc, char** argv) {
     } else if (opt == "--window") {
       window = std::strtoll(v, &end, 10);
       if (*end || window < 1) return usage("--window wants a positive integer");
+    } else if (opt == "--fusion-stride") {
+      if (std::strcmp(v, "1") != 0 && std::strcmp(v, "2") != 0) return usage("--fusion-stride wants 1 or 2");
+      options.fusion.pixel_stride = v[0] - '0';
     } else if (opt == "--associate") {
       if (std::strcmp(v, "tracked") != 0 && std::strcmp(v, "previous") != 0)
         return usage("--associate wants tracked or previous");

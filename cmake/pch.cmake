@@ -2,11 +2,16 @@
 # sources, devices, the program and the benches): Eigen and the standard headers most files include,
 # parsed once per build instead of once per file (about 1.5-2 s of each such file's compile).
 #
-# One header, built once (target ef_pch) and reused by every module whose flags allow it; a module
-# whose own flags change what the header means gets a copy of its own: -fno-math-errno (slam) defines
-# __NO_MATH_ERRNO__, and both GCC and clang refuse a header built without it. Files compiled with
-# their own instruction-set flags (`name__avx2.cpp`, cmake/isa.cmake) never use it: the header is
-# built for the baseline ISA. Modules without Eigen in most of their files (kernels, nn, core, cpu)
+# One header, built once (target ef_pch) and reused by every module without code-generation options
+# of its own; a module with any (-f...: slam's -fno-math-errno, synth's and semantic's
+# -ffp-contract=off) gets a copy built with them. The header's inline functions (Eigen's arithmetic
+# among them) are compiled with the options the header was built with, not those of the file that
+# includes it: synth reused a header built with the default contraction, and on AArch64 (where GCC
+# fuses multiply-adds by default) its rooms were no longer bit-identical to x86-64's (the golden
+# test under qemu said so; -Winvalid-pch says nothing about -ffp-contract). -fno-math-errno is
+# refused outright by both compilers (it defines __NO_MATH_ERRNO__). Files with options of their own
+# (an instruction set's flags, `name__avx2.cpp` in cmake/isa.cmake; slam's per-file -ffp-contract
+# and -fno-trapping-math) never use it. Modules without Eigen in most of their files (kernels, nn, core, cpu)
 # do not use it: loading the header costs about 0.4 s, more than their files' parse.
 # -Winvalid-pch: a header the compiler refuses is a warning (an error with EF_WERROR), never a silent
 # fall-back to parsing every file again.
@@ -25,14 +30,22 @@ if(EF_PCH)
   target_precompile_headers(ef_pch PRIVATE ${EF_PCH_HEADERS})
 endif()
 
-# ef_target_pch(<target>): <target> compiles with the precompiled header (after its compile options
-# are set: a target with -fno-math-errno gets its own copy).
+# ef_target_pch(<target>): <target> compiles with the precompiled header (call it after the target's
+# compile options are set: a target with -f options gets its own copy).
 function(ef_target_pch target)
   if(NOT EF_PCH)
     return()
   endif()
+  # -f options beyond those every target has (the sanitizers', from add_compile_options).
   get_target_property(options ${target} COMPILE_OPTIONS)
-  if(options AND "-fno-math-errno" IN_LIST options)
+  get_target_property(shared_options ef_pch COMPILE_OPTIONS)
+  set(own OFF)
+  foreach(option IN LISTS options)
+    if(option MATCHES "^-f" AND NOT option IN_LIST shared_options)
+      set(own ON)
+    endif()
+  endforeach()
+  if(own)
     target_precompile_headers(${target} PRIVATE ${EF_PCH_HEADERS})
   else()
     target_precompile_headers(${target} REUSE_FROM ef_pch)
@@ -41,7 +54,7 @@ function(ef_target_pch target)
   get_target_property(srcs ${target} SOURCES)
   foreach(src IN LISTS srcs)
     get_source_file_property(src_options "${src}" COMPILE_OPTIONS)
-    if(src_options MATCHES "(^|;)-m")
+    if(src_options)
       set_source_files_properties("${src}" PROPERTIES SKIP_PRECOMPILE_HEADERS ON)
     endif()
   endforeach()

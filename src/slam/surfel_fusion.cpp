@@ -35,7 +35,17 @@ bool finite_positive(float v) { return std::isfinite(v) && v > 0.0f; }
 // ---------------------------------------------------------------------------------------------
 // Options
 
+const opt::Table<FusionOptions>& FusionOptions::table() {
+  static const opt::Table<FusionOptions> t = {
+      {"fusion_stride", "", "", &FusionOptions::pixel_stride, "pixels", opt::between(1, 2),
+       "fuse every pixel (1) or every other pixel of every other row (2: a sparser map, each surfel as fine; "
+       "fusion and prediction cost less, tracking is unchanged)"},
+  };
+  return t;
+}
+
 Status FusionOptions::validate() const {
+  EF_RETURN_IF_ERROR(opt::check_table(*this, table(), "fusion"));
   const auto bad = [](const char* field) {
     return error(ErrorCode::kInvalidArgument, std::string("FusionOptions.") + field + " out of range");
   };
@@ -79,7 +89,8 @@ std::string FusionOptions::describe() const {
     << "merge_max_radius_ratio " << merge_max_radius_ratio << "\n"
     << "fuse_raw_depth " << (fuse_raw_depth ? "true" : "false") << "  # positions from raw (true) or filtered depth\n"
     << "normal_level " << normal_level << "  # pyramid level of the fused normals\n"
-    << "row_gates " << (row_gates ? "true" : "false") << "  # candidates' static gates a row at a time\n";
+    << "row_gates " << (row_gates ? "true" : "false") << "  # candidates' static gates a row at a time\n"
+    << "pixel_stride " << pixel_stride << " px  # every pixel (1) or every other of every other row (2)\n";
   return s.str();
 }
 
@@ -725,7 +736,8 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
   int64_t valid = 0, unmatched_empty = 0, unmatched_depth = 0, unmatched_normal = 0, covered = 0, fused = 0;
   int64_t confirmed = 0, row_gated = 0, n_unmatched = unmatched_count_;
   int32_t* const unmatched = unmatched_.get();
-  for (int y = 0; y < h; ++y) {
+  const int stride = options_.pixel_stride;
+  for (int y = 0; y < h; y += stride) {
     prepare_row(fc, y);
     const bool gated_row = gated_rows && y >= 1 && y < h - 1;
     if (gated_row) {
@@ -737,7 +749,7 @@ void SurfelFusion::associate(const FrameContext& fc, const IndexMap& index, Surf
       }
       kernels::fusion_gates(gp, gr, 1, w - 1, code);
     }
-    for (int x = 0; x < w; ++x) {
+    for (int x = 0; x < w; x += stride) {
       if (field(kRowValid, x) == 0.0f) continue;
       ++valid;
       const int32_t pixel_index = y * w + x;

@@ -3,7 +3,8 @@
 // reconstruction in dynamic scenes using point-based fusion").
 //
 // One fuse() call, in this order (ids change only in steps 3 and 4, after every association):
-//   1. association   every valid pixel (raw depth > 0 and a valid level-0 normal) is moved into the
+//   1. association   every valid pixel (raw depth > 0 and a valid level-0 normal; with pixel_stride 2
+//                    every other pixel of every other row) is moved into the
 //                    camera the index map was rendered from (IndexMap::T_world_cam: SurfelSlam
 //                    renders it at the frame's tracked pose, so that this is the identity, or with
 //                    associate_at_tracked_pose false gives the previous pose's; pixels outside that
@@ -73,6 +74,7 @@
 
 #include "core/image.h"
 #include "core/intrinsics.h"
+#include "core/options.h"
 #include "core/result.h"
 #include "core/se3.h"
 #include "kernels/label_update.h"
@@ -181,13 +183,25 @@ struct FusionOptions {
   // pose) or that lie on the image border take the per-candidate path in both cases.
   bool row_gates = true;
 
+  // Pixels fused: every pixel_stride-th pixel of every pixel_stride-th row (1 or 2), the others left
+  // out of association and creation. A surfel keeps the radius of its own pixel's footprint, so at 2
+  // the map is made of a quarter of the measurements, each as fine as at 1; the views' overlap fills
+  // in where one frame left gaps. Tracking and the prediction keep the full working resolution. 1 =
+  // every pixel (ElasticFusion). Measured on the real 7-Scenes kitchen (docs/results.md, issue 31):
+  // at 2 the map has 130k surfels instead of 371k, fuse takes 41-50% of its time and predict 68-90%
+  // (its pyramid and resolve work per pixel, not per surfel), and the ATE moves from 2.69 to 2.71 cm.
+  // Not the default until its labels (Table I) and a quiet machine's timing say so.
+  int pixel_stride = 1;
+
+  // The keys `run` offers (section mapping): fusion_stride.
+  static const opt::Table<FusionOptions>& table();
   // An error naming the first field out of range.
   Status validate() const;
   // One line per field with its unit, for logs.
   std::string describe() const;
 };
 
-// What the last fuse() did. Pixel counts are working-resolution pixels.
+// What the last fuse() did. Pixel counts are working-resolution pixels (of the pixel_stride grid).
 struct FusionStats {
   int64_t valid_pixels = 0;     // raw depth > 0 and a valid normal
   int64_t fused_pixels = 0;     // fused into an existing surfel (averaged or confidence only)

@@ -175,7 +175,10 @@ TEST(SurfelFusion, OptionsValidateDescribeAndCreate) {
   EXPECT_TRUE(invalid([](FusionOptions& o) { o.merge_max_distance_px = 5; }));
   EXPECT_TRUE(invalid([](FusionOptions& o) { o.merge_normal_deg = 0; }));
   EXPECT_TRUE(invalid([](FusionOptions& o) { o.merge_max_radius_ratio = 0.5f; }));
+  EXPECT_TRUE(invalid([](FusionOptions& o) { o.pixel_stride = 0; }));
+  EXPECT_TRUE(invalid([](FusionOptions& o) { o.pixel_stride = 3; }));
   const std::string d = FusionOptions{}.describe();
+  EXPECT_NE(d.find("pixel_stride 1 px"), std::string::npos) << d;
   EXPECT_NE(d.find("stable_confidence 10"), std::string::npos) << d;
   EXPECT_NE(d.find("association_normal_deg 30 deg"), std::string::npos) << d;
   EXPECT_NE(d.find("fuse_raw_depth true"), std::string::npos) << d;
@@ -309,6 +312,57 @@ TEST(SurfelFusion, EmptyPoolCreatesOneSurfelPerValidPixel) {
   // The radius depends on the incidence: this plane is tilted ~22 degrees from the optical axis.
   const float fronto = std::sqrt(2.0f) * 1.5f / K.fx;
   EXPECT_GT(pool.radius()[valid / 2], fronto * 1.02f);
+}
+
+// pixel_stride 2: only the pixels with even x and y are fused, each into the surfel it makes at
+// stride 1 (same position, normal, radius, colour, weight); fused again at the same pose, each finds
+// its own surfel and nothing new is made.
+TEST(SurfelFusion, StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes) {
+  auto src = test::open_synth(kOfficeNoisy);
+  const Intrinsics K = src->info().intrinsics;
+  const Frame f = render_frame(*src, 10);
+  const SE3 pose = src->poses()[10];
+  Preprocessor pre = make_pre(K, f);
+  FusionOptions every_other;
+  every_other.pixel_stride = 2;
+  SurfelPool all_pool = make_fusion_pool(), pool = make_fusion_pool();
+  SurfelFusion all = make_fusion(K), fusion = make_fusion(K, 1'000'000, every_other);
+  FusionStats st_all, st;
+  ASSERT_TRUE(all.fuse(pre, f.color.view(), pose, IndexMap{}, 10, &all_pool, &st_all).ok());
+  ASSERT_TRUE(fusion.fuse(pre, f.color.view(), pose, IndexMap{}, 10, &pool, &st).ok());
+  expect_pixels_accounted(st);
+
+  // Both create in raster order of the valid pixels: walk them together.
+  int64_t id_all = 0, id = 0, valid_even = 0;
+  for (int y = 0; y < K.height; ++y)
+    for (int x = 0; x < K.width; ++x) {
+      if (!(pre.raw_depth()(x, y) > 0) || !valid_normal(pre.level(0).normal(x, y))) continue;
+      if (x % 2 == 0 && y % 2 == 0) {
+        ++valid_even;
+        ASSERT_LT(id, pool.size());
+        ASSERT_EQ(position(pool, id), position(all_pool, id_all)) << x << "," << y;
+        ASSERT_EQ(normal(pool, id), normal(all_pool, id_all)) << x << "," << y;
+        ASSERT_EQ(pool.radius()[id], all_pool.radius()[id_all]) << x << "," << y;
+        ASSERT_EQ(pool.confidence()[id], all_pool.confidence()[id_all]) << x << "," << y;
+        ASSERT_EQ(pool.color()[id], all_pool.color()[id_all]) << x << "," << y;
+        ++id;
+      }
+      ++id_all;
+    }
+  EXPECT_EQ(id_all, all_pool.size());
+  EXPECT_EQ(st.valid_pixels, valid_even);
+  EXPECT_EQ(st.new_surfels, valid_even);
+  EXPECT_EQ(pool.size(), valid_even);
+  EXPECT_GT(valid_even, st_all.valid_pixels / 5);  // about a quarter of the valid pixels
+  EXPECT_LT(valid_even, st_all.valid_pixels / 3);
+
+  const int64_t n0 = pool.size();
+  const IndexMap index = splat_index(pool, K, 4, pose);
+  ASSERT_TRUE(fusion.fuse(pre, f.color.view(), pose, index, 11, &pool, &st).ok());
+  expect_pixels_accounted(st);
+  EXPECT_EQ(st.fused_pixels, n0);  // every surfel found again by its own pixel
+  EXPECT_EQ(st.new_surfels, 0);
+  EXPECT_EQ(pool.size(), n0);
 }
 
 TEST(SurfelFusion, SameFrameTwiceAtTheSamePoseDoesNotDuplicate) {
