@@ -11,8 +11,10 @@
 # test under qemu said so; -Winvalid-pch says nothing about -ffp-contract). -fno-math-errno is
 # refused outright by both compilers (it defines __NO_MATH_ERRNO__). Files with options of their own
 # (an instruction set's flags, `name__avx2.cpp` in cmake/isa.cmake; slam's per-file -ffp-contract
-# and -fno-trapping-math) never use it. Modules without Eigen in most of their files (kernels, nn, core, cpu)
-# do not use it: loading the header costs about 0.4 s, more than their files' parse.
+# and -fno-trapping-math) never use it. Modules without Eigen in most of their files (kernels, nn,
+# core, cpu) do not use it: loading the header costs about 0.4 s, more than their files' parse.
+# Measured: a release build of the libraries, the program and the benches (no tests), 2 cores, side
+# by side: 351 s without the header, 294 s with it (compiler time 684 -> 571 s).
 # -Winvalid-pch: a header the compiler refuses is a warning (an error with EF_WERROR), never a silent
 # fall-back to parsing every file again.
 #   EF_PCH=OFF   plain builds (for example to check that each file includes what it uses)
