@@ -189,8 +189,9 @@ struct FusionOptions {
   // in where one frame left gaps. Tracking and the prediction keep the full working resolution. 1 =
   // every pixel (ElasticFusion). Measured on the real 7-Scenes kitchen (docs/results.md, issue 31):
   // at 2 the map has 130k surfels instead of 371k, fuse takes 41-50% of its time and predict 68-90%
-  // (its pyramid and resolve work per pixel, not per surfel), and the ATE moves from 2.69 to 2.71 cm.
-  // Not the default until its labels (Table I) and a quiet machine's timing say so.
+  // (its pyramid and resolve work per pixel, not per surfel), and the ATE moves from 2.69 to 2.71 cm;
+  // Table I (synthetic) keeps its SF gain (+1.8 points either way). Not the default until a quiet
+  // machine's timing and the map's pictures say so.
   int pixel_stride = 1;
 
   // The keys `run` offers (section mapping): fusion_stride.
