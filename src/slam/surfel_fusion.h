@@ -186,12 +186,13 @@ struct FusionOptions {
   // Pixels fused: every pixel_stride-th pixel of every pixel_stride-th row (1 or 2), the others left
   // out of association and creation. A surfel keeps the radius of its own pixel's footprint, so at 2
   // the map is made of a quarter of the measurements, each as fine as at 1; the views' overlap fills
-  // in where one frame left gaps. Tracking and the prediction keep the full working resolution. 1 =
-  // every pixel (ElasticFusion). Measured on the real 7-Scenes kitchen (docs/results.md, issue 31):
-  // at 2 the map has 130k surfels instead of 371k, fuse takes 41-50% of its time and predict 68-90%
-  // (its pyramid and resolve work per pixel, not per surfel), and the ATE moves from 2.69 to 2.71 cm;
-  // Table I (synthetic) keeps its SF gain (+1.8 points either way). Not the default until a quiet
-  // machine's timing and the map's pictures say so.
+  // in where one frame left gaps. At 2 a surfel's colour is its 2x2 cell's mean (the texture is not
+  // sampled at half its rate: the tracker's photometric term needs it). Tracking and the prediction
+  // keep the full working resolution. 1 = every pixel (ElasticFusion). Measured (docs/results.md,
+  // issue 31): on the real 7-Scenes kitchen, one idle core, the four SLAM stages 13.3-13.9 -> 7.8-8.3
+  // ms per frame, 130k surfels instead of 371k, ATE 2.72 against 2.69 cm; Table I (synthetic) keeps
+  // its SF gain. Not the default: the stable model covers fewer pixels (a pan's inactive model 5,200
+  // pixels, under the tracker's 7,680 minimum, so loop checks register nothing).
   int pixel_stride = 1;
 
   // The keys `run` offers (section mapping): fusion_stride.

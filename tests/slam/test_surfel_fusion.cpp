@@ -315,8 +315,8 @@ TEST(SurfelFusion, EmptyPoolCreatesOneSurfelPerValidPixel) {
 }
 
 // pixel_stride 2: only the pixels with even x and y are fused, each into the surfel it makes at
-// stride 1 (same position, normal, radius, colour, weight); fused again at the same pose, each finds
-// its own surfel and nothing new is made.
+// stride 1 (same position, normal, radius, weight) but with its 2x2 cell's mean colour; fused again
+// at the same pose, each finds its own surfel and nothing new is made.
 TEST(SurfelFusion, StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes) {
   auto src = test::open_synth(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
@@ -344,7 +344,17 @@ TEST(SurfelFusion, StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes) 
         ASSERT_EQ(normal(pool, id), normal(all_pool, id_all)) << x << "," << y;
         ASSERT_EQ(pool.radius()[id], all_pool.radius()[id_all]) << x << "," << y;
         ASSERT_EQ(pool.confidence()[id], all_pool.confidence()[id_all]) << x << "," << y;
-        ASSERT_EQ(pool.color()[id], all_pool.color()[id_all]) << x << "," << y;
+        // The colour of its 2x2 cell, rounded to nearest (half up).
+        const int x1 = std::min(x + 1, K.width - 1), y1 = std::min(y + 1, K.height - 1);
+        const Rgb8 cell[4] = {f.color(x, y), f.color(x1, y), f.color(x, y1), f.color(x1, y1)};
+        const auto mean = [&](auto channel) {
+          int sum = 0;
+          for (const Rgb8& c : cell) sum += channel(c);
+          return static_cast<uint8_t>((sum + 2) / 4);
+        };
+        ASSERT_EQ(pool.color()[id], pack_rgb(mean([](Rgb8 c) { return c.r; }), mean([](Rgb8 c) { return c.g; }),
+                                             mean([](Rgb8 c) { return c.b; })))
+            << x << "," << y;
         ++id;
       }
       ++id_all;
