@@ -38,8 +38,9 @@ bool finite_positive(float v) { return std::isfinite(v) && v > 0.0f; }
 const opt::Table<FusionOptions>& FusionOptions::table() {
   static const opt::Table<FusionOptions> t = {
       {"fusion_stride", "", "", &FusionOptions::pixel_stride, "pixels", opt::between(1, 2),
-       "fuse every pixel (1) or every other pixel of every other row (2: a sparser map, each surfel as fine; "
-       "fusion and prediction cost less, tracking is unchanged)"},
+       "fuse every pixel (1, ElasticFusion) or every other pixel of every other row (2: each surfel stands for its "
+       "2x2 cell, at the cell's mean depth and colour; a map a third the size, fusion and prediction at about half "
+       "the cost)"},
   };
   return t;
 }
@@ -215,10 +216,10 @@ void SurfelFusion::see(int32_t cell) {
 // computed whatever the validity and chosen by selects, so that a loop over a row has no branch; for
 // an invalid pixel the vertex and normal are meaningless.
 template <bool kCoarse>
-inline bool SurfelFusion::measure(int x, int y, float d, const float* n0, const float* n1, float cd,
+inline bool SurfelFusion::measure(float x, float y, float d, const float* n0, const float* n1, float cd,
                                   Eigen::Vector3f* v, Eigen::Vector3f* n_c) const {
   const bool valid = (d > 0.0f) & valid_normal(Eigen::Vector3f(n0[0], n0[1], n0[2]));
-  *v = K_.backproject(static_cast<float>(x), static_cast<float>(y), d);
+  *v = K_.backproject(x, y, d);
   float nx = n0[0], ny = n0[1], nz = n0[2];
   if (kCoarse) {
     const bool take = valid_normal(Eigen::Vector3f(n1[0], n1[1], n1[2])) & (std::fabs(cd - d) <= depth_gate(d));
@@ -230,13 +231,24 @@ inline bool SurfelFusion::measure(int x, int y, float d, const float* n0, const 
   return valid;
 }
 
-bool SurfelFusion::make_pixel(const FrameContext& fc, int x, int y, PixelContext* px) const {
+float SurfelFusion::fused_depth(const FrameContext& fc, int x, int y, float* offset) const {
   const float d = fc.depth(x, y);
+  *offset = 0.0f;
+  if (options_.pixel_stride == 1) return d;
+  const bool right = x + 1 < K_.width, below = y + 1 < K_.height;
+  return fusion_math::cell_depth(d, right ? fc.depth(x + 1, y) : 0.0f, below ? fc.depth(x, y + 1) : 0.0f,
+                                 right && below ? fc.depth(x + 1, y + 1) : 0.0f, depth_gate(d), offset);
+}
+
+bool SurfelFusion::make_pixel(const FrameContext& fc, int x, int y, PixelContext* px) const {
+  float offset;
+  const float d = fused_depth(fc, x, y, &offset);
+  const float xm = static_cast<float>(x) + offset, ym = static_cast<float>(y) + offset;
   const float n0[3] = {fc.normal(x, y).x(), fc.normal(x, y).y(), fc.normal(x, y).z()};
   float n1[3] = {0.0f, 0.0f, 0.0f}, cd = 0.0f;
   bool valid;
   if (fc.coarse_normal.empty()) {
-    valid = measure<false>(x, y, d, n0, n1, cd, &px->v, &px->n_c);
+    valid = measure<false>(xm, ym, d, n0, n1, cd, &px->v, &px->n_c);
   } else {
     const int cx = x >> 1, cy = y >> 1;
     if (cx < fc.coarse_normal.width && cy < fc.coarse_normal.height) {
@@ -246,7 +258,7 @@ bool SurfelFusion::make_pixel(const FrameContext& fc, int x, int y, PixelContext
       n1[2] = c.z();
       cd = fc.coarse_depth(cx, cy);
     }
-    valid = measure<true>(x, y, d, n0, n1, cd, &px->v, &px->n_c);
+    valid = measure<true>(xm, ym, d, n0, n1, cd, &px->v, &px->n_c);
   }
   if (!valid) return false;
   px->x = x;
@@ -259,6 +271,21 @@ bool SurfelFusion::make_pixel(const FrameContext& fc, int x, int y, PixelContext
 // buffers: the per-pixel arithmetic of association done for a whole row in one branch-free loop,
 // which the compiler vectorises.
 void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
+  if (options_.pixel_stride == 2) {
+    // Each pixel's cell depth and offset (fusion_math::cell_depth; the odd pixels' are computed too
+    // and never read: one branch-free loop over the row).
+    const int w = K_.width;
+    const float* __restrict d0 = fc.depth.row(y);
+    const float* __restrict d1 = y + 1 < K_.height ? fc.depth.row(y + 1) : nullptr;
+    float* __restrict out = row_field(kRowDepth);
+    float* __restrict off = row_field(kRowOffset);
+    for (int x = 0; x + 1 < w; ++x) {
+      const float d = d0[x];
+      out[x] = fusion_math::cell_depth(d, d0[x + 1], d1 ? d1[x] : 0.0f, d1 ? d1[x + 1] : 0.0f, depth_gate(d), &off[x]);
+    }
+    out[w - 1] = d0[w - 1];  // no cell to its right
+    off[w - 1] = 0.0f;
+  }
   if (fc.coarse_normal.empty()) {
     prepare_row<false>(fc, y);
     return;
@@ -289,7 +316,10 @@ void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
 template <bool kCoarse>
 void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
   const int w = K_.width;
-  const float* __restrict depth = fc.depth.row(y);
+  // At pixel_stride 2 the cell depths of the pre-pass (prepare_row above), else the pixel's own.
+  const bool cells = options_.pixel_stride == 2;
+  const float* __restrict depth = cells ? row_field(kRowDepth) : fc.depth.row(y);
+  const float* __restrict offset = row_field(kRowOffset);  // read only at pixel_stride 2
   const float* __restrict normal = fc.normal.row(y)->data();  // x, y, z of each pixel
   const float* __restrict c1x = row_field(kRowC1x);
   const float* __restrict c1y = row_field(kRowC1y);
@@ -325,7 +355,9 @@ void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
   for (int x = 0; x < w; ++x) {
     Eigen::Vector3f v, n_c;
     const float n1[3] = {kCoarse ? c1x[x] : 0.0f, kCoarse ? c1y[x] : 0.0f, kCoarse ? c1z[x] : 0.0f};
-    const bool valid = measure<kCoarse>(x, y, depth[x], normal + 3 * x, n1, kCoarse ? cdep[x] : 0.0f, &v, &n_c);
+    const float o = cells ? offset[x] : 0.0f;
+    const bool valid = measure<kCoarse>(static_cast<float>(x) + o, static_cast<float>(y) + o, depth[x], normal + 3 * x, n1,
+                                        kCoarse ? cdep[x] : 0.0f, &v, &n_c);
     const Eigen::Vector3f n_w = R_wc * n_c;
     const Eigen::Vector3f p_i = R_ic * v + t_ic;
     const float inv_z = 1.0f / p_i.z();  // used only where p_i.z() > 0

@@ -71,7 +71,16 @@ SurfelPool make_fusion_pool(int64_t capacity = 1'000'000, int32_t evict_unseen =
   return std::move(p).value();
 }
 
-SurfelFusion make_fusion(const Intrinsics& K, int64_t capacity = 1'000'000, const FusionOptions& o = {}) {
+// The rules of fusion are stated and checked here pixel by pixel: these tests fuse every pixel
+// (FusionOptions::pixel_stride 1, ElasticFusion's way); the default of every other pixel of every
+// other row is checked against it (StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes).
+FusionOptions every_pixel() {
+  FusionOptions o;
+  o.pixel_stride = 1;
+  return o;
+}
+
+SurfelFusion make_fusion(const Intrinsics& K, int64_t capacity = 1'000'000, const FusionOptions& o = every_pixel()) {
   auto f = SurfelFusion::create(K, 4, capacity, o);
   EXPECT_TRUE(f.ok()) << to_string(f.error());
   return std::move(f).value();
@@ -157,7 +166,7 @@ Frame flat_frame(const Intrinsics& K, double z, Rgb8 color) {
 TEST(SurfelFusion, OptionsValidateDescribeAndCreate) {
   EXPECT_TRUE(FusionOptions{}.validate().ok());
   const auto invalid = [](auto mutate) {
-    FusionOptions o;
+    FusionOptions o = every_pixel();
     mutate(o);
     return !o.validate().ok();
   };
@@ -178,7 +187,7 @@ TEST(SurfelFusion, OptionsValidateDescribeAndCreate) {
   EXPECT_TRUE(invalid([](FusionOptions& o) { o.pixel_stride = 0; }));
   EXPECT_TRUE(invalid([](FusionOptions& o) { o.pixel_stride = 3; }));
   const std::string d = FusionOptions{}.describe();
-  EXPECT_NE(d.find("pixel_stride 1 px"), std::string::npos) << d;
+  EXPECT_NE(d.find("pixel_stride 2 px"), std::string::npos) << d;
   EXPECT_NE(d.find("stable_confidence 10"), std::string::npos) << d;
   EXPECT_NE(d.find("association_normal_deg 30 deg"), std::string::npos) << d;
   EXPECT_NE(d.find("fuse_raw_depth true"), std::string::npos) << d;
@@ -314,17 +323,19 @@ TEST(SurfelFusion, EmptyPoolCreatesOneSurfelPerValidPixel) {
   EXPECT_GT(pool.radius()[valid / 2], fronto * 1.02f);
 }
 
-// pixel_stride 2: only the pixels with even x and y are fused, each into the surfel it makes at
-// stride 1 (same position, normal, radius, weight) but with its 2x2 cell's mean colour; fused again
-// at the same pose, each finds its own surfel and nothing new is made.
+// pixel_stride 2: only the pixels with even x and y are fused, each standing for its 2x2 cell: where
+// the cell's four depths are valid and within the depth gate of the pixel's, the surfel lies at the
+// cell's mean depth on the ray through the cell's centre, else where the pixel's own depth puts it;
+// its normal and weight are those the pixel gets at stride 1, its radius nearly, its colour the cell's
+// mean. Fused again at the same pose, each finds its own surfel and nothing new is made.
 TEST(SurfelFusion, StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes) {
   auto src = test::open_synth(kOfficeNoisy);
   const Intrinsics K = src->info().intrinsics;
   const Frame f = render_frame(*src, 10);
   const SE3 pose = src->poses()[10];
   Preprocessor pre = make_pre(K, f);
-  FusionOptions every_other;
-  every_other.pixel_stride = 2;
+  const FusionOptions every_other;  // the default
+  ASSERT_EQ(every_other.pixel_stride, 2);
   SurfelPool all_pool = make_fusion_pool(), pool = make_fusion_pool();
   SurfelFusion all = make_fusion(K), fusion = make_fusion(K, 1'000'000, every_other);
   FusionStats st_all, st;
@@ -333,16 +344,38 @@ TEST(SurfelFusion, StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes) 
   expect_pixels_accounted(st);
 
   // Both create in raster order of the valid pixels: walk them together.
-  int64_t id_all = 0, id = 0, valid_even = 0;
+  int64_t id_all = 0, id = 0, valid_even = 0, cells = 0, normal_changes = 0;
   for (int y = 0; y < K.height; ++y)
     for (int x = 0; x < K.width; ++x) {
       if (!(pre.raw_depth()(x, y) > 0) || !valid_normal(pre.level(0).normal(x, y))) continue;
       if (x % 2 == 0 && y % 2 == 0) {
         ++valid_even;
         ASSERT_LT(id, pool.size());
-        ASSERT_EQ(position(pool, id), position(all_pool, id_all)) << x << "," << y;
-        ASSERT_EQ(normal(pool, id), normal(all_pool, id_all)) << x << "," << y;
-        ASSERT_EQ(pool.radius()[id], all_pool.radius()[id_all]) << x << "," << y;
+        // The cell (x..x+1, y..y+1) is one surface when its four raw depths are valid and within
+        // the default depth gate (1 cm + 0.008 z^2) of the pixel's.
+        const float d = pre.raw_depth()(x, y);
+        const float gate = 0.01f + 0.008f * d * d;
+        bool one_surface = x + 1 < K.width && y + 1 < K.height;
+        double depth_sum = 0;
+        for (int k = 0; one_surface && k < 4; ++k) {
+          const float dk = pre.raw_depth()(x + k % 2, y + k / 2);
+          one_surface = dk > 0 && std::fabs(dk - d) <= gate;
+          depth_sum += dk;
+        }
+        cells += one_surface ? 1 : 0;
+        const double z = one_surface ? depth_sum / 4 : d, off = one_surface ? 0.5 : 0.0;
+        const Eigen::Vector3d v((x + off - K.cx) * z / K.fx, (y + off - K.cy) * z / K.fy, z);
+        const Eigen::Vector3d expected = pose * v;
+        ASSERT_LT((position(pool, id).cast<double>() - expected).norm(), 1e-5) << x << "," << y;
+        if (!one_surface) {
+          ASSERT_EQ(position(pool, id), position(all_pool, id_all)) << x << "," << y;
+          ASSERT_EQ(normal(pool, id), normal(all_pool, id_all)) << x << "," << y;
+        } else if (normal(pool, id) != normal(all_pool, id_all)) {
+          // The level-1 normal is taken when the level-1 depth is within the gate of the fused
+          // depth: the cell's mean can decide otherwise than the pixel's depth, rarely.
+          ++normal_changes;
+        }
+        ASSERT_NEAR(pool.radius()[id], all_pool.radius()[id_all], 0.03f * all_pool.radius()[id_all]) << x << "," << y;
         ASSERT_EQ(pool.confidence()[id], all_pool.confidence()[id_all]) << x << "," << y;
         // The colour of its 2x2 cell, rounded to nearest (half up).
         const int x1 = std::min(x + 1, K.width - 1), y1 = std::min(y + 1, K.height - 1);
@@ -365,6 +398,10 @@ TEST(SurfelFusion, StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes) 
   EXPECT_EQ(pool.size(), valid_even);
   EXPECT_GT(valid_even, st_all.valid_pixels / 5);  // about a quarter of the valid pixels
   EXPECT_LT(valid_even, st_all.valid_pixels / 3);
+  // Most cells are one surface (the office's noise is well inside the gate); edges are not.
+  EXPECT_GT(cells, valid_even * 8 / 10);
+  EXPECT_LT(cells, valid_even);
+  EXPECT_LT(normal_changes, valid_even / 100);
 
   const int64_t n0 = pool.size();
   const IndexMap index = splat_index(pool, K, 4, pose);
@@ -614,7 +651,7 @@ TEST(SurfelFusion, OptionsSelectTheDepthAndNormalSources) {
   Preprocessor pre = make_pre(K, f);
   for (const bool raw : {true, false}) {
     for (const int level : {0, 1}) {
-      FusionOptions o;
+      FusionOptions o = every_pixel();
       o.fuse_raw_depth = raw;
       o.normal_level = level;
       SurfelPool pool = make_fusion_pool(100'000);
@@ -640,7 +677,7 @@ TEST(SurfelFusion, OptionsSelectTheDepthAndNormalSources) {
       }
     }
   }
-  FusionOptions o;
+  FusionOptions o = every_pixel();
   o.normal_level = 1;
   PreprocessOptions one_level;
   one_level.levels = 1;
@@ -733,7 +770,7 @@ TEST(SurfelFusion, UnstableSurfelsExpireAfterTheLifetimeStableOnesStay) {
   EXPECT_EQ(pool.size(), 1);  // stable: kept however old
 
   // Without the sweep, surfels that are never seen are not checked.
-  FusionOptions no_sweep;
+  FusionOptions no_sweep = every_pixel();
   no_sweep.lifetime_sweep_per_frame = 0;
   SurfelFusion lazy = make_fusion(K, 1000, no_sweep);
   SurfelPool pool2 = make_fusion_pool(1000);
@@ -741,7 +778,7 @@ TEST(SurfelFusion, UnstableSurfelsExpireAfterTheLifetimeStableOnesStay) {
   ASSERT_TRUE(lazy.fuse(pre, blank.color.view(), SE3(), splat_index(pool2, K, 4, SE3()), 1000, &pool2, &st).ok());
   EXPECT_EQ(pool2.size(), 3);
   // A sweep of 1 id per frame gets to both expired surfels within 3 frames.
-  FusionOptions slow_sweep;
+  FusionOptions slow_sweep = every_pixel();
   slow_sweep.lifetime_sweep_per_frame = 1;
   SurfelFusion slow = make_fusion(K, 1000, slow_sweep);
   int64_t removed = 0;
@@ -757,7 +794,7 @@ TEST(SurfelFusion, UnstableSurfelsExpireAfterTheLifetimeStableOnesStay) {
 TEST(SurfelFusion, SeenUnstableSurfelsExpireToo) {
   // A visible unstable surfel past its lifetime is removed even when the sweep is off.
   OneSurfelCase c;
-  FusionOptions no_sweep;
+  FusionOptions no_sweep = every_pixel();
   no_sweep.lifetime_sweep_per_frame = 0;
   SurfelFusion fusion = make_fusion(c.K, 100'000, no_sweep);
   add_on_ray(c.pool, c.K, 160, 120, 1.0f, Eigen::Vector3f(0, 0, -1), c.r_m, 1.0f, 0, 0);
@@ -973,10 +1010,10 @@ TEST(SurfelFusion, RowGatesGiveTheSameMapAsTestingEachCandidate) {
   auto pre_r = Preprocessor::create(K);
   ASSERT_TRUE(pre_r.ok());
   Preprocessor& pre = *pre_r;
-  FusionOptions cell_by_cell;
+  FusionOptions cell_by_cell = every_pixel();
   cell_by_cell.row_gates = false;
   SurfelPool pools[2] = {make_fusion_pool(), make_fusion_pool()};
-  SurfelFusion fusions[2] = {SurfelFusion::create(K, 1, 1'000'000, FusionOptions{}).value(),
+  SurfelFusion fusions[2] = {SurfelFusion::create(K, 1, 1'000'000, every_pixel()).value(),
                              SurfelFusion::create(K, 1, 1'000'000, cell_by_cell).value()};
   Frame f;
   f.allocate(K.width, K.height, true);
