@@ -236,8 +236,11 @@ float SurfelFusion::fused_depth(const FrameContext& fc, int x, int y, float* off
   *offset = 0.0f;
   if (options_.pixel_stride == 1) return d;
   const bool right = x + 1 < K_.width, below = y + 1 < K_.height;
-  return fusion_math::cell_depth(d, right ? fc.depth(x + 1, y) : 0.0f, below ? fc.depth(x, y + 1) : 0.0f,
-                                 right && below ? fc.depth(x + 1, y + 1) : 0.0f, depth_gate(d), offset);
+  const fusion_math::CellDepth c =
+      fusion_math::cell_depth(d, right ? fc.depth(x + 1, y) : 0.0f, below ? fc.depth(x, y + 1) : 0.0f,
+                              right && below ? fc.depth(x + 1, y + 1) : 0.0f, depth_gate(d));
+  *offset = c.offset;
+  return c.depth;
 }
 
 bool SurfelFusion::make_pixel(const FrameContext& fc, int x, int y, PixelContext* px) const {
@@ -272,19 +275,22 @@ bool SurfelFusion::make_pixel(const FrameContext& fc, int x, int y, PixelContext
 // which the compiler vectorises.
 void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
   if (options_.pixel_stride == 2) {
-    // Each pixel's cell depth and offset (fusion_math::cell_depth; the odd pixels' are computed too
-    // and never read: one branch-free loop over the row).
+    // The fused (even) pixels' cell depths and offsets (fusion_math::cell_depth); the odd pixels'
+    // entries keep their zeros and are never read. Scalar: GCC does not vectorise the cell test (it
+    // keeps the comparisons as branches), and at 160 cells a row it is a small part of the row pass.
     const int w = K_.width;
-    const float* __restrict d0 = fc.depth.row(y);
-    const float* __restrict d1 = y + 1 < K_.height ? fc.depth.row(y + 1) : nullptr;
-    float* __restrict out = row_field(kRowDepth);
-    float* __restrict off = row_field(kRowOffset);
-    for (int x = 0; x + 1 < w; ++x) {
-      const float d = d0[x];
-      out[x] = fusion_math::cell_depth(d, d0[x + 1], d1 ? d1[x] : 0.0f, d1 ? d1[x + 1] : 0.0f, depth_gate(d), &off[x]);
+    const float* d0 = fc.depth.row(y);
+    const float* d1 = y + 1 < K_.height ? fc.depth.row(y + 1) : nullptr;
+    float* out = row_field(kRowDepth);
+    float* off = row_field(kRowOffset);
+    for (int x = 0; x < w; x += 2) {
+      const fusion_math::CellDepth c =
+          x + 1 < w && d1 != nullptr
+              ? fusion_math::cell_depth(d0[x], d0[x + 1], d1[x], d1[x + 1], depth_gate(d0[x]))
+              : fusion_math::CellDepth{d0[x], 0.0f};
+      out[x] = c.depth;
+      off[x] = c.offset;
     }
-    out[w - 1] = d0[w - 1];  // no cell to its right
-    off[w - 1] = 0.0f;
   }
   if (fc.coarse_normal.empty()) {
     prepare_row<false>(fc, y);
@@ -316,10 +322,10 @@ void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
 template <bool kCoarse>
 void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
   const int w = K_.width;
-  // At pixel_stride 2 the cell depths of the pre-pass (prepare_row above), else the pixel's own.
-  const bool cells = options_.pixel_stride == 2;
-  const float* __restrict depth = cells ? row_field(kRowDepth) : fc.depth.row(y);
-  const float* __restrict offset = row_field(kRowOffset);  // read only at pixel_stride 2
+  // At pixel_stride 2 the cell depths and offsets of the pre-pass (prepare_row above), else the
+  // pixel's own depth and the offsets' zeros (create() clears them; only the pre-pass writes them).
+  const float* __restrict depth = options_.pixel_stride == 2 ? row_field(kRowDepth) : fc.depth.row(y);
+  const float* __restrict offset = row_field(kRowOffset);
   const float* __restrict normal = fc.normal.row(y)->data();  // x, y, z of each pixel
   const float* __restrict c1x = row_field(kRowC1x);
   const float* __restrict c1y = row_field(kRowC1y);
@@ -355,7 +361,7 @@ void SurfelFusion::prepare_row(const FrameContext& fc, int y) {
   for (int x = 0; x < w; ++x) {
     Eigen::Vector3f v, n_c;
     const float n1[3] = {kCoarse ? c1x[x] : 0.0f, kCoarse ? c1y[x] : 0.0f, kCoarse ? c1z[x] : 0.0f};
-    const float o = cells ? offset[x] : 0.0f;
+    const float o = offset[x];
     const bool valid = measure<kCoarse>(static_cast<float>(x) + o, static_cast<float>(y) + o, depth[x], normal + 3 * x, n1,
                                         kCoarse ? cdep[x] : 0.0f, &v, &n_c);
     const Eigen::Vector3f n_w = R_wc * n_c;
