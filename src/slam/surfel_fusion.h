@@ -56,7 +56,7 @@
 // Memory: create() allocates everything, bytes(): 1 per index pixel (the state of the current
 // frame), 4 per entry of the list of seen surfels (min(capacity, index pixels) plus
 // lifetime_sweep_per_frame), one bit per id of the lifetime sweep, 8 per working pixel (unmatched
-// pixels, confidence weights), 100 per working column (one row of measurements and their gate
+// pixels, confidence weights), 108 per working column (one row of measurements and their gate
 // codes); 1.1 MB at 320x240
 // and index map scale 1 with the default sweep, whatever the pool's capacity. fuse() never touches
 // the heap.
@@ -191,7 +191,7 @@ struct FusionOptions {
   // (normal_level 1). A surfel keeps one pixel's radius (sqrt(2) pixels: a disc that reaches its
   // cell's corners). Tracking and the prediction keep the full working resolution. 1 = every pixel
   // (ElasticFusion). Why 2 by default, measured side by side (docs/results.md, issue 31): on the
-  // real 7-Scenes kitchen, one idle core, the four SLAM stages 13.3-13.9 -> 7.8-8.3 ms per frame
+  // real 7-Scenes kitchen, one idle core, the four SLAM stages 14.0-14.5 -> 8.4-8.5 ms per frame
   // (fuse and the renders work per surfel) with 131k surfels instead of 371k covering the same
   // picture, ATE 2.69 cm either way; the synthetic 2000-frame loop 0.21 cm against 0.55 (the cell's
   // mean halves the depth noise; one pixel's depth gave 0.90); the Kinect-like seed-7 scan (45
