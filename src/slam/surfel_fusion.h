@@ -4,7 +4,7 @@
 //
 // One fuse() call, in this order (ids change only in steps 3 and 4, after every association):
 //   1. association   every valid pixel (raw depth > 0 and a valid level-0 normal) of the pixel_stride
-//                    grid (by default every other pixel of every other row) is moved into the
+//                    grid (by default every pixel) is moved into the
 //                    camera the index map was rendered from (IndexMap::T_world_cam: SurfelSlam
 //                    renders it at the frame's tracked pose, so that this is the identity, or with
 //                    associate_at_tracked_pose false gives the previous pose's; pixels outside that
@@ -190,14 +190,16 @@ struct FusionOptions {
   // rate made the predicted intensity alias); its normal is the level-1 normal of the same block
   // (normal_level 1). A surfel keeps one pixel's radius (sqrt(2) pixels: a disc that reaches its
   // cell's corners). Tracking and the prediction keep the full working resolution. 1 = every pixel
-  // (ElasticFusion). Why 2 by default, measured side by side (docs/results.md, issue 31): on the
-  // real 7-Scenes kitchen, one idle core, the four SLAM stages 14.0-14.5 -> 8.4-8.5 ms per frame
-  // (fuse and the renders work per surfel) with 131k surfels instead of 371k covering the same
-  // picture, ATE 2.69 cm either way; the synthetic 2000-frame loop 0.21 cm against 0.55 (the cell's
-  // mean halves the depth noise; one pixel's depth gave 0.90); the Kinect-like seed-7 scan (45
-  // frames) 2.2 mm against 9.3. The price: the stable model covers fewer pixels (holes between
-  // discs), so a registration against a small inactive model needs more of it in view.
-  int pixel_stride = 2;
+  // (ElasticFusion). Measured side by side (docs/results.md, issue 31): on the real 7-Scenes
+  // kitchen, one idle core, the four SLAM stages 14.0-14.5 -> 8.4-8.5 ms per frame at 2 (fuse and
+  // the renders work per surfel) with 131k surfels instead of 371k covering the same picture, ATE
+  // 2.69 cm either way; the synthetic 2000-frame loop 0.21 cm against 0.55 (the cell's mean halves
+  // the depth noise; one pixel's depth gave 0.90); ten of the eleven inspecting scans of Table I
+  // more accurate. Not the default: on the eleventh (seed 5005) the stable model, sparser when the
+  // camera comes close to surfaces made from further away (holes between discs), leaves tracking
+  // ill-conditioned for 133 frames and the map ghosts; and a registration against a small inactive
+  // model needs more of it in view.
+  int pixel_stride = 1;
 
   // The keys `run` offers (section mapping): fusion_stride.
   static const opt::Table<FusionOptions>& table();
