@@ -194,12 +194,11 @@ struct FusionOptions {
   // kitchen, one idle core, the four SLAM stages 14.0-14.5 -> 8.4-8.5 ms per frame at 2 (fuse and
   // the renders work per surfel) with 131k surfels instead of 371k covering the same picture, ATE
   // 2.69 cm either way; the synthetic 2000-frame loop 0.21 cm against 0.55 (the cell's mean halves
-  // the depth noise; one pixel's depth gave 0.90); ten of the eleven inspecting scans of Table I
-  // more accurate. Not the default: on the eleventh (seed 5005) the stable model, sparser when the
-  // camera comes close to surfaces made from further away (holes between discs), leaves tracking
-  // ill-conditioned for 133 frames and the map ghosts; and a registration against a small inactive
-  // model needs more of it in view.
-  int pixel_stride = 1;
+  // the depth noise; one pixel's depth gave 0.90); the eleven inspecting scans of Table I more
+  // accurate (seed 5005 needed the tracker's lost_max_condition at 4e4: slam/tracker.h). The price:
+  // the stable model has holes between its discs, so a registration against a small inactive model
+  // needs more of it in view (a loop check from further into the revisit).
+  int pixel_stride = 2;
 
   // The keys `run` offers (section mapping): fusion_stride.
   static const opt::Table<FusionOptions>& table();
