@@ -166,6 +166,9 @@ const opt::Table<TrackerOptions>& TrackerOptions::table() {
        opt::between(0, 255), "tracking: a photometric row needs the predicted image's gradient at least this"},
       {"rgb_gain", "rgb_gain", "", &TrackerOptions::rgb_gain, "", opt::any(),
        "tracking: compare intensities through a fitted exposure and vignetting gain"},
+      {"lost_max_condition", "lost_max_condition", "", &TrackerOptions::lost_max_condition, "", opt::at_least(1),
+       "tracking: a frame is lost when its system's condition number (largest / smallest eigenvalue) exceeds "
+       "this: a direction the data does not see"},
   };
   return t;
 }

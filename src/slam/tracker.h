@@ -263,7 +263,8 @@ struct TrackerOptions {
   double lost_max_correction_m = 0.3;
   double lost_max_correction_deg = 20.0;
 
-  // The keys `run` offers (section mapping): icp_weight, rgb_weight, rgb_boost_condition, rgb_boost_max.
+  // The keys `run` offers (section mapping): icp_weight, rgb_weight, rgb_boost_condition, rgb_boost_max,
+  // rgb_min_gradient, rgb_gain, lost_max_condition.
   static const opt::Table<TrackerOptions>& table();
   // An error naming the first field out of range.
   Status validate() const;
