@@ -72,7 +72,7 @@ SurfelPool make_fusion_pool(int64_t capacity = 1'000'000, int32_t evict_unseen =
 }
 
 // The rules of fusion are stated and checked here pixel by pixel: these tests fuse every pixel
-// (FusionOptions::pixel_stride 1, ElasticFusion's way); the default of every other pixel of every
+// (FusionOptions::pixel_stride 1, the default, ElasticFusion's way); every other pixel of every
 // other row is checked against it (StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes).
 FusionOptions every_pixel() {
   FusionOptions o;
@@ -187,7 +187,7 @@ TEST(SurfelFusion, OptionsValidateDescribeAndCreate) {
   EXPECT_TRUE(invalid([](FusionOptions& o) { o.pixel_stride = 0; }));
   EXPECT_TRUE(invalid([](FusionOptions& o) { o.pixel_stride = 3; }));
   const std::string d = FusionOptions{}.describe();
-  EXPECT_NE(d.find("pixel_stride 2 px"), std::string::npos) << d;
+  EXPECT_NE(d.find("pixel_stride 1 px"), std::string::npos) << d;
   EXPECT_NE(d.find("stable_confidence 10"), std::string::npos) << d;
   EXPECT_NE(d.find("association_normal_deg 30 deg"), std::string::npos) << d;
   EXPECT_NE(d.find("fuse_raw_depth true"), std::string::npos) << d;
@@ -334,8 +334,8 @@ TEST(SurfelFusion, StrideTwoFusesEveryOtherPixelOfEveryOtherRowAsStrideOneDoes) 
   const Frame f = render_frame(*src, 10);
   const SE3 pose = src->poses()[10];
   Preprocessor pre = make_pre(K, f);
-  const FusionOptions every_other;  // the default
-  ASSERT_EQ(every_other.pixel_stride, 2);
+  FusionOptions every_other;
+  every_other.pixel_stride = 2;
   SurfelPool all_pool = make_fusion_pool(), pool = make_fusion_pool();
   SurfelFusion all = make_fusion(K), fusion = make_fusion(K, 1'000'000, every_other);
   FusionStats st_all, st;
