@@ -197,7 +197,6 @@ Status TrackerOptions::validate() const {
   if (lost_min_inliers < 0) return bad("lost_min_inliers");
   if (!finite_positive(lost_max_icp_rms_m)) return bad("lost_max_icp_rms_m");
   if (!finite_positive(lost_max_rgb_rms_grey)) return bad("lost_max_rgb_rms_grey");
-  if (!(lost_max_condition >= 1)) return bad("lost_max_condition");
   if (!finite_positive(lost_max_correction_m)) return bad("lost_max_correction_m");
   if (!finite_positive(lost_max_correction_deg)) return bad("lost_max_correction_deg");
   return Status::success();
