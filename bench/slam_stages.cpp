@@ -11,7 +11,8 @@
 // clock, SlamFrameResult::timings; track over frames after the first, fuse over fused frames), the
 // thread CPU time of process(), the surfels at the end, lost frames and, when the source has
 // reference poses, the ATE RMSE (TUM conventions, eval/trajectory_eval.h) over every frame.
-// --fusion-stride 2 fuses every other pixel of every other row (FusionOptions::pixel_stride).
+// --fusion-stride 1 fuses every pixel, 2 (the default) every other pixel of every other row
+// (FusionOptions::pixel_stride).
 // --window N also prints, for every N frames, the medians of the four stages and their sum, the
 // surfels at the window's end and the share of pool blocks predict visited (how the cost grows with
 // the map: bench/slam_growth.sh). One thread: SurfelSlam is single threaded. Exit 2: bad options or a source that cannot be opened.
@@ -104,7 +105,7 @@ int usage(const char* why) {
                "  --warmup N         first frames left out of the stage statistics, default 10\n"
                "  --associate WHERE  fusion's index map: at the tracked pose (default) or the previous one\n"
                "  --window N         also print the stage medians of every N frames (default 0: none)\n"
-               "  --fusion-stride S  fuse every pixel (1, default) or every other of every other row (2)\n",
+               "  --fusion-stride S  fuse every pixel (1) or every other of every other row (2, default)\n",
                default_source().c_str());
   return 2;
 }

@@ -166,6 +166,7 @@ Result<SurfelFusion> SurfelFusion::create(const Intrinsics& working, int index_m
   f.cos_normal_gate_ = std::cos(options.association_normal_deg * kDegToRad);
   f.cos_merge_gate_ = std::cos(options.merge_normal_deg * kDegToRad);
   f.focal_ = 0.5f * (working.fx + working.fy);
+  f.radius_scale_ = options.pixel_stride == 2 ? fusion_math::kStrideTwoRadiusScale : 1.0f;
 
   const int64_t pixels = static_cast<int64_t>(working.width) * working.height;
   f.seen_capacity_ = seen_list_capacity(pixels, index_map_scale, pool_capacity);
@@ -400,7 +401,7 @@ inline void SurfelFusion::sample_geometry(const FrameContext& fc, const Eigen::V
   *p = fc.R_wc * v + fc.t_wc;
   // v.norm() written as the square root of squaredNorm() (the same value), which GCC vectorises.
   const float cos_abs = std::fabs(n_c.dot(v)) / std::sqrt(v.squaredNorm());
-  *radius = fusion_math::surfel_radius_m(v.z(), cos_abs, focal_, options_.max_radius_incidence_factor);
+  *radius = radius_scale_ * fusion_math::surfel_radius_m(v.z(), cos_abs, focal_, options_.max_radius_incidence_factor);
 }
 
 fusion_math::Sample SurfelFusion::sample_at(const FrameContext& fc, const PixelContext& px) const {

@@ -195,14 +195,10 @@ struct FusionOptions {
   // the renders work per surfel) with 131k surfels instead of 371k covering the same picture, ATE
   // 2.69 cm either way; the synthetic 2000-frame loop 0.21 cm against 0.55 (the cell's mean halves
   // the depth noise; one pixel's depth gave 0.90); the eleven inspecting scans of Table I more
-  // accurate (seed 5005 needed the tracker's lost_max_condition at 4e4: slam/tracker.h). Not the
-  // default: where the camera turns into surface it has not seen, the stable model covers fewer
-  // pixels of the frame than every pixel's (holes between its discs, and new surface not yet
-  // stable), and on the Kinect-camera inspecting scan seed 8 (300 frames) the ICP inlier fraction
-  // fell to 0.099 at frame 27, under the tracker's 0.1: 273 frames lost, ATE 1.03 m (every pixel:
-  // 0 lost, 8.5 mm). Drawing the tracking maps' discs 1.41x larger held it (6.5 mm), not yet
-  // measured elsewhere. Also a registration against a small inactive model needs more of it in view.
-  int pixel_stride = 1;
+  // accurate (seed 5005 needed the tracker's lost_max_condition at 4e4: slam/tracker.h). The price:
+  // the stable model has holes between its discs, so a registration against a small inactive model
+  // needs more of it in view (a loop check from further into the revisit).
+  int pixel_stride = 2;
 
   // The keys `run` offers (section mapping): fusion_stride.
   static const opt::Table<FusionOptions>& table();
@@ -248,6 +244,15 @@ inline float confidence_weight(float gamma2, float inv_two_sigma2) { return std:
 
 // The depth gate at depth z (metres), metres.
 inline float depth_gate_m(float z, float base_m, float quadratic) { return base_m + quadratic * z * z; }
+
+// A surfel fused at FusionOptions::pixel_stride 2 stands for its 2x2 cell; its disc radius is this
+// times one pixel's (surfel_radius_m), so that the discs of neighbouring cells overlap when drawn
+// from another view (at 1x they only just reach the cell's corners). Measured on the Kinect-camera
+// inspecting scans (docs/results.md, issue 31): at 1x the stable model left holes where the camera
+// turned into new surface and seed 8 lost its track (273 of 300 frames; 1.2x too); 1.3x held all
+// eight (0 lost); 1.41x-2x slid on seed 3 (ATE 73-93 mm over 80 frames, in a corner where ICP is
+// blind and the photometric term decides).
+inline constexpr float kStrideTwoRadiusScale = 1.3f;
 
 // Disc radius (metres) of a measurement at depth z (metres) seen with |cos(incidence)| = cos_abs,
 // focal length f (pixels): sqrt(2) z / f / cos, with 1/cos capped at max_factor.
@@ -454,6 +459,7 @@ class SurfelFusion {
   int64_t capacity_ = 0;
   std::size_t bytes_ = 0;
   float cos_normal_gate_ = 0, cos_merge_gate_ = 0, focal_ = 0;
+  float radius_scale_ = 1;  // disc radius over one pixel's: fusion_math::kStrideTwoRadiusScale at stride 2
   ImageView<const Rgb8> color_;            // the current frame's colour (fuse() only)
 
   std::unique_ptr<uint8_t[]> cell_state_;  // StateFlag bits per index pixel, cleared by begin_frame()

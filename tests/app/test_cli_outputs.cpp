@@ -243,10 +243,10 @@ TEST(CliOutputs, AFullDiskEndsTheRunWithFailedStatsAndWholeFiles) {
   if (test::kUnderEmulator) GTEST_SKIP() << test::kProcessTestUnderEmulator;
   test::SmallDisk disk("cli-outputs-full", 512 * 1024);
   EF_SKIP_WITHOUT_SMALL_DISK(disk);
-  // The final checkpoint and the map (60 and 40 bytes a surfel, some 30,000 surfels) do not fit; the
-  // trajectory does.
+  // The final checkpoint and the map (60 and 40 bytes a surfel, some 20,000 surfels at 320x240) do
+  // not fit; the trajectory does.
   const fs::path out = disk.dir() / "run";
-  auto r = cli({"run", "--source", "synthetic:?frames=12&size=160x120", "--resolution", "160x120", "--no-labels",
+  auto r = cli({"run", "--source", "synthetic:?frames=12&size=320x240", "--resolution", "320x240", "--no-labels",
                 "--quiet", "--out", out.string()});
   EXPECT_EQ(r.code, 1) << r.err;
   EXPECT_NE(r.err.find("checkpoint.efs: write failed"), std::string::npos) << r.err;

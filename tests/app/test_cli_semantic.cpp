@@ -310,14 +310,15 @@ TEST(CliSemantic, CrfEveryMFramesAndAtTheEnd) {
 // the full pool evicted and refused (issue 33, rough edge 4).
 TEST(CliSemantic, AFullPoolIsWarnedAndSummarised) {
   const auto dir = test::scratch_dir("cli-pool-full");
+  // 2,000 surfels: the first 160x120 frame offers up to 4,800 (every other pixel of every other row).
   auto r = cli({"run", "--source", "synthetic:?frames=4&size=160x120", "--resolution", "160x120", "--no-labels",
-                "--surfel-capacity", "5000", "--out", (dir / "run").string(), "--quiet"});
+                "--surfel-capacity", "2000", "--out", (dir / "run").string(), "--quiet"});
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.err.find("warning: the surfel pool is full (5000 surfels"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("warning: the surfel pool is full (2000 surfels"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("warning: the surfel pool is full", r.err.find("warning: the surfel pool is full") + 1),
             std::string::npos)
       << "warned more than once: " << r.err;
-  const auto line = r.out.find("surfel pool full (5000 surfels, mapping.surfel_capacity): ");
+  const auto line = r.out.find("surfel pool full (2000 surfels, mapping.surfel_capacity): ");
   ASSERT_NE(line, std::string::npos) << r.out;
   EXPECT_NE(r.out.find(" refused", line), std::string::npos) << r.out;
   // --no-labels: the map has no class properties (rough edge 3).

@@ -278,7 +278,9 @@ TEST(Pipeline, ThreeThousandFramesOnThreeThreadsAllocateNothing) {
   EXPECT_EQ(source.own_allocations() - source_before, 0u);
   EXPECT_EQ(counting.allocations, 0u) << "heap allocations over " << kFrames << " steady-state frames";
   EXPECT_EQ((*p)->slam().lost_frames(), 0);
-  EXPECT_GT((*p)->slam().pool().size(), 5000);
+  // A map was made: at 160x120, fusing every other pixel of every other row (the default), the
+  // first frame alone gives up to 4,800 surfels.
+  EXPECT_GT((*p)->slam().pool().size(), 3000);
 }
 
 TEST(Pipeline, StopRequestDrainsEveryPreparedFrameAndWritesOutputs) {

@@ -97,27 +97,27 @@ TEST(SurfelSlam, TracksASyntheticSequenceWithoutNoise) {
   constexpr int kFrames = test::frames_native_or_emulated(60, 30);
   const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", kFrames, {}, true);
   ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(o, kFrames));
-  EXPECT_LT(ate_rmse(o), 0.005);  // metres
-  EXPECT_GT(o.surfels, 30000);
-}
-
-// Fusing every other pixel of every other row (FusionOptions::pixel_stride 2, each standing for its
-// 2x2 cell) still tracks the noise-free loop at the same accuracy, with a sparser map than every
-// pixel's.
-TEST(SurfelSlam, FusingEveryOtherPixelTracksASyntheticSequenceWithoutNoise) {
-  constexpr int kFrames = test::frames_native_or_emulated(60, 12);
-  SurfelSlamOptions every_other;
-  every_other.fusion.pixel_stride = 2;
-  const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", kFrames, every_other, false);
-  ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(o, kFrames));
   const double ate = ate_rmse(o);
-  std::printf("[ slam ] every other pixel fused: %d frames, ATE %.2f mm, %lld surfels\n", kFrames, ate * 1e3,
-              static_cast<long long>(o.surfels));
+  std::printf("[ slam ] every other pixel fused (the default): %d frames, ATE %.2f mm, %lld surfels\n", kFrames,
+              ate * 1e3, static_cast<long long>(o.surfels));
   EXPECT_LT(ate, 0.005);  // metres
-  // A quarter of the first frame's pixels, then what later views add: well below every pixel's map
-  // (TracksASyntheticSequenceWithoutNoise: more than 30,000 after 60 frames).
+  // The default fuses every other pixel of every other row (FusionOptions::pixel_stride 2): a
+  // quarter of the first frame's pixels, then what later views add; well below every pixel's map
+  // (the next test: more than 30,000).
   EXPECT_GT(o.surfels, 5000);
   EXPECT_LT(o.surfels, 30000);
+}
+
+// Fusing every pixel (FusionOptions::pixel_stride 1, ElasticFusion's way) tracks the noise-free
+// loop at the same accuracy, with a map several times denser than the default's.
+TEST(SurfelSlam, FusingEveryPixelTracksASyntheticSequenceWithoutNoise) {
+  constexpr int kFrames = test::frames_native_or_emulated(60, 12);
+  SurfelSlamOptions every_pixel;
+  every_pixel.fusion.pixel_stride = 1;
+  const RunOutput o = run_sequence("synthetic:office?noise=0&frames=1000&size=320x240", kFrames, every_pixel, false);
+  ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(o, kFrames));
+  EXPECT_LT(ate_rmse(o), 0.005);  // metres
+  EXPECT_GT(o.surfels, 30000);
 }
 
 // The Kinect-like colour camera (auto-exposure, vignetting) on an inspecting scan that faces a wall
@@ -126,9 +126,10 @@ TEST(SurfelSlam, FusingEveryOtherPixelTracksASyntheticSequenceWithoutNoise) {
 // slid about 4 cm a frame along the wall; with them it holds.
 TEST(SurfelSlam, AKinectLikeCameraBeforeABareWallDoesNotSlide) {
   if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
-  // Measured here (x86-64): with / without, 45 frames 9.3 / 223 mm; 20 frames 13.1 / 63 mm (the
-  // first three frames still slide 3.3, 1.6 and 0.8 cm: the map is then one or two views, whose
-  // colours carry the same vignette as the frame).
+  // Measured here (x86-64), with / without, 45 frames: 2.2 / 243 mm at the default (every other
+  // pixel fused); fusing every pixel 9.3 / 223 mm, and 20 frames 13.1 / 63 mm (the first three
+  // frames still slid 3.3, 1.6 and 0.8 cm: the map is then one or two views, whose colours carry the
+  // same vignette as the frame).
   constexpr int kFrames = test::frames_native_or_emulated(45, 20);
   const std::string uri = "synthetic:random?seed=7&trajectory=inspect&camera=kinect&frames=300&size=320x240";
   const RunOutput on = run_sequence(uri, kFrames, {});
@@ -144,40 +145,37 @@ TEST(SurfelSlam, AKinectLikeCameraBeforeABareWallDoesNotSlide) {
   EXPECT_GT(ate_off, 3 * ate_on);
 }
 
-// The same scan fusing every other pixel of every other row (FusionOptions::pixel_stride 2): each
-// surfel takes its 2x2 cell's mean colour, so that the predicted intensity does not alias the wall's
-// faint texture: with the one pixel's colour it slid (45 frames: 129 mm). Measured here (x86-64),
-// 45 frames: 2.2 mm (every pixel: 9.3 mm).
-TEST(SurfelSlam, FusingEveryOtherPixelHoldsAKinectLikeCameraBeforeABareWall) {
+// The same scan fusing every pixel (FusionOptions::pixel_stride 1). The default (every other pixel
+// of every other row, the test above) gives each surfel its 2x2 cell's mean colour, so that the
+// predicted intensity does not alias the wall's faint texture: with the one pixel's colour it slid
+// (45 frames: 129 mm). Measured here (x86-64), 45 frames: 9.3 mm every pixel, 2.2 mm the default.
+TEST(SurfelSlam, FusingEveryPixelHoldsAKinectLikeCameraBeforeABareWall) {
   if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   constexpr int kFrames = 45;
-  SurfelSlamOptions every_other;
-  every_other.fusion.pixel_stride = 2;
+  SurfelSlamOptions every_pixel;
+  every_pixel.fusion.pixel_stride = 1;
   const RunOutput o =
-      run_sequence("synthetic:random?seed=7&trajectory=inspect&camera=kinect&frames=300&size=320x240", kFrames, every_other);
+      run_sequence("synthetic:random?seed=7&trajectory=inspect&camera=kinect&frames=300&size=320x240", kFrames, every_pixel);
   ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(o, kFrames));
   const double ate = ate_rmse(o);
-  std::printf("seed-7 Kinect-camera scan, every other pixel fused, %d frames: ATE %.1f mm\n", kFrames, ate * 1e3);
+  std::printf("seed-7 Kinect-camera scan, every pixel fused, %d frames: ATE %.1f mm\n", kFrames, ate * 1e3);
   EXPECT_LT(ate, 0.02);  // metres
 }
 
 // The held-out inspecting scan seed 5005 turns toward a far wall beyond the depth range: for some 40
 // frames from frame 505 the view holds the floor, the ceiling and one side wall, and only colour and
-// a few edges hold the forward direction (the system's condition number reaches 1.3e4 fusing every
-// pixel, 2.9e4 fusing every other). That direction is weak but seen: the frames must be tracked and
-// fused, or the model never grows into the new view and tracking does not come back (fusing every
-// other pixel with the limit at 2e4: lost from frame 509 on, 133 frames of 1200, ATE 1.12 m;
-// TrackerOptions::lost_max_condition). Fusing every other pixel, where the margin is smallest.
+// a few edges hold the forward direction (the system's condition number reaches 2.9e4 fusing every
+// other pixel). That direction is weak but seen: the frames must be tracked and fused, or the model
+// never grows into the new view and tracking does not come back (the limit at 2e4: lost from frame
+// 509 on, 133 frames of 1200, ATE 1.12 m; TrackerOptions::lost_max_condition).
 TEST(SurfelSlam, AnInspectingScanWithItsFarWallOutOfRangeStaysTracked) {
   if (test::kShortForm) GTEST_SKIP() << "native, optimised builds only: 560 rendered and mapped frames";
   constexpr int kFrames = 560;
-  SurfelSlamOptions every_other;
-  every_other.fusion.pixel_stride = 2;
   const RunOutput o =
-      run_sequence("synthetic:random?seed=5005&trajectory=inspect&frames=1200&size=320x240", kFrames, every_other);
+      run_sequence("synthetic:random?seed=5005&trajectory=inspect&frames=1200&size=320x240", kFrames, {});
   ASSERT_NO_FATAL_FAILURE(expect_every_frame_tracked(o, kFrames));
   const double ate = ate_rmse(o);
-  std::printf("seed-5005 inspecting scan, every other pixel fused, %d frames: ATE %.1f mm\n", kFrames, ate * 1e3);
+  std::printf("seed-5005 inspecting scan, %d frames: ATE %.1f mm\n", kFrames, ate * 1e3);
   EXPECT_LT(ate, 0.03);  // metres
 }
 
@@ -427,7 +425,7 @@ TEST(SurfelSlam, AssociatingAtTheTrackedPoseMakesNoDuplicatesOnTheWayBack) {
               static_cast<long long>(back_new[0]), static_cast<long long>(back_new[1]),
               static_cast<long long>(surfels[0]), static_cast<long long>(surfels[1]));
   // Each frame of the way back brings about 4.6 pixels' width (1 degree) of known surface into view,
-  // of whose pixels one in stride^2 is fused (FusionOptions::pixel_stride).
+  // of whose pixels the default fuses one in four (FusionOptions::pixel_stride 2).
   const int stride = SurfelSlamOptions{}.fusion.pixel_stride;
   EXPECT_GT(back_new[0], kOut * 3 * K.height / (stride * stride));
   EXPECT_LT(back_new[1] * 4, back_new[0]);
@@ -595,11 +593,12 @@ TEST(SurfelSlam, NoHeapAllocationWhenRelocalising) {
 // minimum at 0 every registration becomes a closure: each meets its constraints, and the trajectory
 // stays as accurate.
 TEST(SurfelSlam, LoopChecksRegisterAgainstTheInactiveModelAndCloseOnlyWhatIsOpen) {
-  // Needs 24 frames out (a shorter pan leaves too little inactive surface in view to register):
-  // about 2 minutes under qemu-user, for code that the other tests already run there. (Fusing every
-  // other pixel, FusionOptions::pixel_stride 2, it needs 32: that map covers fewer pixels of it.)
+  // Needs 32 frames out (a shorter pan leaves too little inactive surface in view to register: the
+  // default map, every other pixel fused, covers fewer pixels of it than every pixel's, which
+  // registered from 24 on): about 2.5 minutes under qemu-user, for code that the other tests already
+  // run there.
   if (test::kUnderEmulator) GTEST_SKIP() << "native only: 100 rendered and mapped frames";
-  constexpr int kOut = 24;
+  constexpr int kOut = 32;
   const std::string uri = "synthetic:office?noise=0&frames=1&size=320x240";
   const std::unique_ptr<synth::SyntheticSource> src = test::open_synth(uri);
   ASSERT_NE(src, nullptr);
