@@ -188,16 +188,18 @@ struct FusionOptions {
   // one surface (fusion_math::cell_depth) it is measured at the cell's mean depth on the ray through
   // the cell's centre, and its colour is the cell's mean (sampling one pixel's texture at half its
   // rate made the predicted intensity alias); its normal is the level-1 normal of the same block
-  // (normal_level 1). A surfel keeps one pixel's radius (sqrt(2) pixels: a disc that reaches its
-  // cell's corners). Tracking and the prediction keep the full working resolution. 1 = every pixel
-  // (ElasticFusion). Measured side by side (docs/results.md, issue 31): on the real 7-Scenes
-  // kitchen, one idle core, the four SLAM stages 14.0-14.5 -> 8.4-8.5 ms per frame at 2 (fuse and
-  // the renders work per surfel) with 131k surfels instead of 371k covering the same picture, ATE
-  // 2.69 cm either way; the synthetic 2000-frame loop 0.21 cm against 0.55 (the cell's mean halves
-  // the depth noise; one pixel's depth gave 0.90); the eleven inspecting scans of Table I more
-  // accurate (seed 5005 needed the tracker's lost_max_condition at 4e4: slam/tracker.h). The price:
-  // the stable model has holes between its discs, so a registration against a small inactive model
-  // needs more of it in view (a loop check from further into the revisit).
+  // (normal_level 1); its disc 1.3x one pixel's (fusion_math::kStrideTwoRadiusScale: at 1x, a disc
+  // that only just reaches its cell's corners, the stable model had holes where the camera turned
+  // into new surface and lost a Kinect-camera scan). Tracking and the prediction keep the full
+  // working resolution. 1 = every pixel (ElasticFusion). Measured side by side (docs/results.md,
+  // issue 31): on the real 7-Scenes kitchen, one idle core, the four SLAM stages 14.0-14.5 -> 8.4-8.5
+  // ms per frame at 2 (fuse and the renders work per surfel) with 131k surfels instead of 371k
+  // covering the same picture, ATE 2.71 cm (every pixel 2.69); the synthetic 2000-frame loop more
+  // accurate (the cell's mean halves the depth noise), the eleven inspecting scans of Table I and the
+  // eight Kinect-camera scans as accurate or more (seed 5005 needed the tracker's lost_max_condition
+  // at 4e4: slam/tracker.h). The price: the stable model covers fewer pixels, so a registration
+  // against a small inactive model needs more of it in view (a loop check from further into the
+  // revisit).
   int pixel_stride = 2;
 
   // The keys `run` offers (section mapping): fusion_stride.
