@@ -194,13 +194,12 @@ struct FusionOptions {
   // working resolution. 1 = every pixel (ElasticFusion). Measured side by side (docs/results.md,
   // issue 31): on the real 7-Scenes kitchen, one idle core, the four SLAM stages 14.0-14.5 -> 8.4-8.5
   // ms per frame at 2 with one pixel's disc (fuse and the renders work per surfel; the 1.3x disc adds
-  // about 0.25 ms, larger discs to draw) with 131k surfels instead of 371k
-  // covering the same picture, ATE 2.71 cm (every pixel 2.69); the synthetic 2000-frame loop more
-  // accurate (the cell's mean halves the depth noise), the eleven inspecting scans of Table I and the
-  // eight Kinect-camera scans as accurate or more (seed 5005 needed the tracker's lost_max_condition
-  // at 4e4: slam/tracker.h). The price: the stable model covers fewer pixels, so a registration
-  // against a small inactive model needs more of it in view (a loop check from further into the
-  // revisit).
+  // about 0.25 ms, larger discs to draw) with 131k surfels instead of 371k covering the same
+  // picture, ATE 2.71 cm (every pixel 2.69); the synthetic 2000-frame loop more accurate (the cell's
+  // mean halves the depth noise), the eleven inspecting scans of Table I and the eight Kinect-camera
+  // scans as accurate or more (seed 5005 needed the tracker's lost_max_condition at 4e4:
+  // slam/tracker.h). The price: the stable model covers fewer pixels, so a registration against a
+  // small inactive model needs more of it in view (a loop check from further into the revisit).
   int pixel_stride = 2;
 
   // The keys `run` offers (section mapping): fusion_stride.

@@ -127,9 +127,9 @@ TEST(SurfelSlam, FusingEveryPixelTracksASyntheticSequenceWithoutNoise) {
 TEST(SurfelSlam, AKinectLikeCameraBeforeABareWallDoesNotSlide) {
   if (test::kUnderEmulator) GTEST_SKIP() << test::kLongSequenceTestUnderEmulator;
   // Measured here (x86-64), with / without, 45 frames: 2.2 / 209 mm at the default (every other
-  // pixel fused; 2.2 / 243 with one pixel's disc); fusing every pixel 9.3 / 223 mm, and 20 frames 13.1 / 63 mm (the first three
-  // frames still slid 3.3, 1.6 and 0.8 cm: the map is then one or two views, whose colours carry the
-  // same vignette as the frame).
+  // pixel fused; 2.2 / 243 with one pixel's disc); fusing every pixel 9.3 / 223 mm, and 20 frames
+  // 13.1 / 63 mm (the first three frames still slid 3.3, 1.6 and 0.8 cm: the map is then one or two
+  // views, whose colours carry the same vignette as the frame).
   constexpr int kFrames = test::frames_native_or_emulated(45, 20);
   const std::string uri = "synthetic:random?seed=7&trajectory=inspect&camera=kinect&frames=300&size=320x240";
   const RunOutput on = run_sequence(uri, kFrames, {});
