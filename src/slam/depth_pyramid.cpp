@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "kernels/pyramid_row.h"
+
 namespace ef::slam {
 
 namespace {
@@ -51,20 +53,66 @@ float coarse_depth_at(const Image<float>& fine, int x, int y, float thr) {
   return any ? depth : 0.0f;
 }
 
+// Coarse intensity at (x, y) of a pixel that has a coarse depth: the binomial window over the finer
+// pixels with depth; 0 when none (the border pixels of downsample(); the interior is the kernel's).
+float coarse_intensity_at(const Image<float>& depth, const Image<float>& intensity, int x, int y) {
+  const int fw = depth.width(), fh = depth.height();
+  float sum = 0.0f, weight = 0.0f;
+  for (int j = 0; j < 4; ++j) {
+    const int yy = 2 * y - 1 + j;
+    if (yy < 0 || yy >= fh) continue;
+    const float* d = depth.data() + static_cast<std::size_t>(yy) * fw;
+    const float* g = intensity.data() + static_cast<std::size_t>(yy) * fw;
+    for (int i = 0; i < 4; ++i) {
+      const int xx = 2 * x - 1 + i;
+      if (xx < 0 || xx >= fw) continue;
+      const bool take = d[xx] > 0.0f;
+      const float wgt = kTap[i] * kTap[j];
+      sum += take ? wgt * g[xx] : 0.0f;
+      weight += take ? wgt : 0.0f;
+    }
+  }
+  return weight > 0.0f ? sum / weight : 0.0f;
+}
+
+// Both downsamples: the interior pixels of rows 1 .. h - 2 by kernels/pyramid_row (SIMD across the
+// row, bit-identical to its scalar twin, which states the same rule), the border pixels here.
+void downsample(const Image<float>& fine, const Image<float>* fine_intensity, Image<float>& coarse,
+                Image<float>* coarse_intensity, float threshold_m) {
+  const int w = coarse.width(), h = coarse.height(), fw = fine.width();
+  const auto border = [&](int x, int y) {
+    const float d = coarse_depth_at<false>(fine, x, y, threshold_m);
+    coarse(x, y) = d;
+    if (coarse_intensity != nullptr)
+      (*coarse_intensity)(x, y) = d > 0.0f ? coarse_intensity_at(fine, *fine_intensity, x, y) : 0.0f;
+  };
+  kernels::PyramidRow row;
+  row.threshold_m = threshold_m;
+  for (int y = 0; y < h; ++y) {
+    if (y == 0 || y == h - 1 || w < 3) {
+      for (int x = 0; x < w; ++x) border(x, y);
+      continue;
+    }
+    border(0, y);
+    for (int j = 0; j < 4; ++j) {
+      const std::size_t r = static_cast<std::size_t>(2 * y - 1 + j) * fw;
+      row.depth[j] = fine.data() + r;
+      if (coarse_intensity != nullptr) row.intensity[j] = fine_intensity->data() + r;
+    }
+    kernels::pyramid_row(row, 1, w - 1, &coarse(0, y), coarse_intensity != nullptr ? &(*coarse_intensity)(0, y) : nullptr);
+    border(w - 1, y);
+  }
+}
+
 }  // namespace
 
 void downsample_depth(const Image<float>& fine, Image<float>& coarse, float threshold_m) {
-  const int w = coarse.width(), h = coarse.height();
-  for (int y = 0; y < h; ++y) {
-    float* out = &coarse(0, y);
-    if (y == 0 || y == h - 1) {
-      for (int x = 0; x < w; ++x) out[x] = coarse_depth_at<false>(fine, x, y, threshold_m);
-      continue;
-    }
-    out[0] = coarse_depth_at<false>(fine, 0, y, threshold_m);
-    for (int x = 1; x < w - 1; ++x) out[x] = coarse_depth_at<true>(fine, x, y, threshold_m);
-    out[w - 1] = coarse_depth_at<false>(fine, w - 1, y, threshold_m);
-  }
+  downsample(fine, nullptr, coarse, nullptr, threshold_m);
+}
+
+void downsample_depth_intensity(const Image<float>& fine_depth, const Image<float>& fine_intensity,
+                                Image<float>& coarse_depth, Image<float>& coarse_intensity, float threshold_m) {
+  downsample(fine_depth, &fine_intensity, coarse_depth, &coarse_intensity, threshold_m);
 }
 
 }  // namespace ef::slam

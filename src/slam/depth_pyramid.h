@@ -11,33 +11,23 @@
 // nearest keeps the selection symmetric, so a steep slope is not biased toward its near side. A
 // block without any depth gives none (0): holes are not filled.
 //
-// Depths in metres, 0 = none. Branch-free for the data (selects), one pixel at a time: a version over
-// runs of 64 pixels of a row, in loops the compiler vectorises and bit-identical, was measured no
-// faster (7-Scenes at 320x240, both pyramids: 1.85 against 2.03 ms of the predictor's pyramid stage,
-// side by side). No allocation; any sizes with coarse <= fine / 2 per axis.
+// Depths in metres, 0 = none. The interior of each row is kernels/pyramid_row (SIMD across the row;
+// measured on 7-Scenes: see docs/results.md, issue 31), its border here. No allocation; any sizes
+// with coarse <= fine / 2 per axis.
 #pragma once
 
 #include "core/image.h"
 
 namespace ef::slam {
 
-// Calls f(x, y, interior) for every pixel of a w x h image, `interior` true where the pixel is at
-// least one pixel from every border (where the 3x3 window of its level and the 4x4 window of the finer
-// level lie inside).
-template <class F>
-void for_each_pixel(int w, int h, F&& f) {
-  for (int y = 0; y < h; ++y) {
-    if (y == 0 || y == h - 1) {
-      for (int x = 0; x < w; ++x) f(x, y, false);
-      continue;
-    }
-    f(0, y, false);
-    for (int x = 1; x < w - 1; ++x) f(x, y, true);
-    f(w - 1, y, false);
-  }
-}
-
 // Every pixel of `coarse` from `fine` by the rule above.
 void downsample_depth(const Image<float>& fine, Image<float>& coarse, float threshold_m);
+
+// The same depth, and each coarse pixel's intensity from the finer intensities: the same [1 3 3 1] x
+// [1 3 3 1] window over the finer pixels that have depth, normalised by the weight used; 0 where the
+// coarse pixel has no depth or no finer pixel has (the model prediction's pyramid: only predicted
+// pixels carry colour).
+void downsample_depth_intensity(const Image<float>& fine_depth, const Image<float>& fine_intensity,
+                                Image<float>& coarse_depth, Image<float>& coarse_intensity, float threshold_m);
 
 }  // namespace ef::slam

@@ -238,9 +238,9 @@ Status ModelPredictor::predict_seen(const SurfelPool& pool, const SE3& T_world_c
   timings_.resolve_ms = lap_ms(t);
   for (int l = 0; l < levels_; ++l) {
     if (l > 0) {
-      downsample_depth(level_[l - 1].depth, level_[l].depth, options_.pyramid_depth_threshold_m);
+      downsample_depth_intensity(level_[l - 1].depth, level_[l - 1].intensity, level_[l].depth, level_[l].intensity,
+                                 options_.pyramid_depth_threshold_m);
       vertex_normal(l);
-      downsample_intensity(l);
     }
     gradients(l);
     fill_holes(l);
@@ -712,35 +712,10 @@ void ModelPredictor::resolve(const SurfelPool& pool, const Pose& pose) {
 
 namespace {
 
-constexpr float kTap[4] = {1.0f, 3.0f, 3.0f, 1.0f};  // binomial weights of the 4x4 window, per axis
-
 // The per-pixel work of the coarse levels is written once, for a pixel whose window lies inside the
 // image (kInterior: no bounds tests; selects rather than branches for the data-dependent tests) and
-// for a border pixel (taps outside the image are skipped); callers use the first for every pixel but
-// a one-pixel frame. Validity is depth > 0 throughout (vertex z = depth).
-
-// Coarse intensity at (x, y): the binomial window over finer pixels with depth (see
-// downsample_intensity); 0 when none.
-template <bool kInterior>
-float coarse_intensity_at(const Image<float>& depth, const Image<float>& intensity, int x, int y) {
-  const int fw = depth.width(), fh = depth.height();
-  float sum = 0.0f, weight = 0.0f;
-  for (int j = 0; j < 4; ++j) {
-    const int yy = 2 * y - 1 + j;
-    if (!kInterior && (yy < 0 || yy >= fh)) continue;
-    const float* d = depth.data() + static_cast<std::size_t>(yy) * fw;
-    const float* g = intensity.data() + static_cast<std::size_t>(yy) * fw;
-    for (int i = 0; i < 4; ++i) {
-      const int xx = 2 * x - 1 + i;
-      if (!kInterior && (xx < 0 || xx >= fw)) continue;
-      const bool take = d[xx] > 0.0f;
-      const float wgt = kTap[i] * kTap[j];
-      sum += take ? wgt * g[xx] : 0.0f;
-      weight += take ? wgt : 0.0f;
-    }
-  }
-  return weight > 0.0f ? sum / weight : 0.0f;
-}
+// for a border pixel (taps outside the image are skipped). Validity is depth > 0 throughout (vertex z
+// = depth).
 
 // Sobel / 8 at (x, y) (see gradients): taps without depth, or outside the image, take the centre's
 // value; 0 at a pixel without depth.
@@ -856,19 +831,6 @@ void ModelPredictor::vertex_normal(int l) {
       cr /= std::sqrt(len2);
       n = cr.dot(c) > 0.0f ? Eigen::Vector3f(-cr) : cr;
     }
-}
-
-// Intensity of level l: the [1 3 3 1] x [1 3 3 1] window of downsample_depth over the finer pixels
-// that have a prediction, normalised by the weight used (0 where the coarse pixel has no depth).
-void ModelPredictor::downsample_intensity(int l) {
-  const PredictedLevel& src = level_[l - 1];
-  PredictedLevel& dst = level_[l];
-  for_each_pixel(dst.intrinsics.width, dst.intrinsics.height, [&](int x, int y, bool interior) {
-    const bool has_depth = dst.depth(x, y) > 0.0f;
-    dst.intensity(x, y) = !has_depth ? 0.0f
-                          : interior ? coarse_intensity_at<true>(src.depth, src.intensity, x, y)
-                                     : coarse_intensity_at<false>(src.depth, src.intensity, x, y);
-  });
 }
 
 // Sobel / 8 of the intensity (grey levels per pixel of level l). A neighbour without a prediction (or

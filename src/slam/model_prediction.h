@@ -240,7 +240,6 @@ class ModelPredictor {
   void render(const SurfelPool& pool, const Pose& pose, PredictionCounters& counters);
   void resolve(const SurfelPool& pool, const Pose& pose);
   void vertex_normal(int l);
-  void downsample_intensity(int l);
   void gradients(int l);
   void fill_holes(int l);
 

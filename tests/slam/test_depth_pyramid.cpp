@@ -28,5 +28,38 @@ TEST(DepthPyramid, KeepsAPlaneTakesOneSurfaceAtAStepAndLeavesHoles) {
   EXPECT_EQ(coarse(7, 3), 3.0f);
 }
 
+// The predictor's pyramid: intensity from the finer pixels with depth only, none where the coarse
+// pixel has no depth; border and interior pixels (kernels/pyramid_row) alike.
+TEST(DepthPyramid, IntensityComesFromPixelsWithDepthOnly) {
+  Image<float> fine, grey;
+  fine.allocate(20, 12);
+  grey.allocate(20, 12);
+  for (int y = 0; y < 12; ++y)
+    for (int x = 0; x < 20; ++x) {
+      const bool hole = (x + y) % 5 == 0 && !(x >= 8 && x < 12 && y >= 4 && y < 8);
+      fine(x, y) = hole ? 0.0f : 2.0f;
+      grey(x, y) = hole ? 1.0e6f : 100.0f;  // what a hole holds must not leak in
+    }
+  for (int y = 4; y < 6; ++y)
+    for (int x = 14; x < 16; ++x) fine(x, y) = 0.0f;  // coarse (7, 2): its block has no depth
+  Image<float> coarse, coarse_grey, depth_only;
+  coarse.allocate(10, 6);
+  coarse_grey.allocate(10, 6);
+  depth_only.allocate(10, 6);
+  downsample_depth_intensity(fine, grey, coarse, coarse_grey, kThr);
+  downsample_depth(fine, depth_only, kThr);
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 10; ++x) {
+      EXPECT_EQ(coarse(x, y), depth_only(x, y)) << x << ", " << y;
+      if (x == 7 && y == 2) {
+        EXPECT_EQ(coarse(x, y), 0.0f);
+        EXPECT_EQ(coarse_grey(x, y), 0.0f);
+      } else {
+        EXPECT_EQ(coarse(x, y), 2.0f) << x << ", " << y;
+        EXPECT_EQ(coarse_grey(x, y), 100.0f) << x << ", " << y;
+      }
+    }
+}
+
 }  // namespace
 }  // namespace ef::slam
