@@ -4,8 +4,8 @@
 // median time per call and the throughput (depth: GB/s of uint16 input + float output; dot: GOP/s,
 // counting one multiply and one add per element pair; normal equations: million rows/s of
 // 8-float Gauss-Newton rows; fusion gates and the bilateral filter: million pixels/s of one 320x240
-// frame; pyramid rows: million coarse pixels/s of a 160x120 level). Pin the CPU and close other work
-// first.
+// frame; pyramid rows: million coarse pixels/s of a 160x120 level; normal rows: million pixels/s of a
+// 320x240 vertex map). Pin the CPU and close other work first.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -19,6 +19,7 @@
 #include "kernels/depth_u16_to_metres_variants.h"
 #include "kernels/dot_i8_variants.h"
 #include "kernels/fusion_gates_variants.h"
+#include "kernels/normal_row_variants.h"
 #include "kernels/pyramid_row_variants.h"
 #include "kernels/reduce_normal_equations_variants.h"
 #include "platform/cpu/cpu_features.h"
@@ -238,6 +239,38 @@ int main(int argc, char** argv) {
           },
           reps, min_ms);
       std::printf("  %-34s %9.1f us  %7.1f Mpixels/s\n", v.name, s * 1e6, (kCw - 2) * (kCh - 2) / s * 1e-6);
+    }
+  }
+  // The normals of one 320x240 vertex map: a tilted plane at about 2 m.
+  {
+    constexpr int kW = 320, kH = 240;
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> vertex(3 * kW * kH), normal(3 * kW * kH);
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) {
+        const float d = 2.0f + 0.002f * static_cast<float>(x) + 0.001f * u(rng);
+        float* v = &vertex[3 * (y * kW + x)];
+        v[0] = (static_cast<float>(x) - 160.0f) * d / 290.0f;
+        v[1] = (static_cast<float>(y) - 120.0f) * d / 290.0f;
+        v[2] = d;
+      }
+    std::printf("\nnormal_row, one %dx%d frame\n", kW, kH);
+    for (const auto& v : kNormalRowVariants) {
+      if (!isa_available(v.isa, cpu)) {
+        std::printf("  %-34s skipped (CPU lacks %s)\n", v.name, isa_name(v.isa));
+        continue;
+      }
+      const double s = median_seconds_per_call(
+          [&] {
+            NormalRow r;
+            r.step_x = r.step_y = 11.43f / 290.0f;
+            for (int y = 1; y < kH - 1; ++y) {
+              for (int k = 0; k < 3; ++k) r.vertex[k] = vertex.data() + 3 * (y - 1 + k) * kW;
+              v.fn(r, 1, kW - 1, normal.data() + 3 * y * kW);
+            }
+          },
+          reps, min_ms);
+      std::printf("  %-34s %9.1f us  %7.1f Mpixels/s\n", v.name, s * 1e6, (kW - 2) * (kH - 2) / s * 1e-6);
     }
   }
   return 0;

@@ -3,6 +3,7 @@
 
 #include "core/stopwatch.h"
 #include "kernels/bilateral_row.h"
+#include "kernels/normal_row.h"
 #include "slam/depth_pyramid.h"
 
 #include <algorithm>
@@ -213,9 +214,8 @@ void Preprocessor::vertex_normal(int l) {
   const Intrinsics& K = lv.intrinsics;
   const int w = K.width, h = K.height;
   const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
-  // Both loops are branch-free over a row (every value computed, then selects), read and write the
-  // vectors component by component, and so are vectorised by the compiler; each lane does exactly
-  // the operations of the one-pixel-at-a-time form.
+  // The vertices: branch-free over a row (every value computed, then selects), reading and writing
+  // the vectors component by component, so that the compiler vectorises it.
   for (int y = 0; y < h; ++y) {
     const float* d = lv.depth.data() + static_cast<std::size_t>(y) * w;
     float* v = lv.vertex.data()[static_cast<std::size_t>(y) * w].data();  // x, y, z per pixel
@@ -229,39 +229,20 @@ void Preprocessor::vertex_normal(int l) {
   }
   // Largest depth step per unit depth between horizontal / vertical neighbours: 1 / (f tan(angle)).
   const float inv_tan = 1.0f / std::tan(options_.normal_min_grazing_deg * (kPi / 180.0f));
-  const float step_x = inv_tan / K.fx, step_y = inv_tan / K.fy;
+  kernels::NormalRow row;
+  row.step_x = inv_tan / K.fx;
+  row.step_y = inv_tan / K.fy;
+  // The interior of each row by kernels/normal_row (SIMD across the row, bit-identical to its scalar
+  // twin, which states the rule); the border has no normal.
   for (int y = 0; y < h; ++y) {
     Eigen::Vector3f* n = lv.normal.data() + static_cast<std::size_t>(y) * w;
-    if (y == 0 || y == h - 1) {
+    if (y == 0 || y == h - 1 || w < 3) {
       for (int x = 0; x < w; ++x) n[x] = zero;
       continue;
     }
-    const float* up = lv.vertex.data()[static_cast<std::size_t>(y - 1) * w].data();
-    const float* mid = up + 3 * w;
-    const float* down = mid + 3 * w;
-    float* out = n->data();
+    for (int k = 0; k < 3; ++k) row.vertex[k] = lv.vertex.data()[static_cast<std::size_t>(y - 1 + k) * w].data();
     n[0] = n[w - 1] = zero;
-    for (int x = 1; x < w - 1; ++x) {
-      const float zc = mid[3 * x + 2];
-      const float zl = mid[3 * x - 1], zr = mid[3 * x + 5], zu = up[3 * x + 2], zd = down[3 * x + 2];
-      const float max_dx = zc * step_x, max_dy = zc * step_y;
-      // Invalid neighbours have z = 0, which also fails the step test (zc > 0 > max step is false
-      // only when zc itself is 0, caught by the first condition).
-      const bool steps_ok = (zc > 0.0f) & (std::fabs(zl - zc) <= max_dx) & (std::fabs(zr - zc) <= max_dx) &
-                            (std::fabs(zu - zc) <= max_dy) & (std::fabs(zd - zc) <= max_dy) & (zl > 0.0f) &
-                            (zr > 0.0f) & (zu > 0.0f) & (zd > 0.0f);
-      const Eigen::Vector3f dx(mid[3 * x + 3] - mid[3 * x - 3], mid[3 * x + 4] - mid[3 * x - 2], zr - zl);
-      const Eigen::Vector3f dy(down[3 * x] - up[3 * x], down[3 * x + 1] - up[3 * x + 1], zd - zu);
-      Eigen::Vector3f c = dy.cross(dx);
-      const float len2 = c.squaredNorm();
-      const bool ok = steps_ok & (len2 > 0.0f);
-      c *= 1.0f / std::sqrt(len2);  // meaningless (inf, NaN) where !ok, then not taken
-      const Eigen::Vector3f m(mid[3 * x], mid[3 * x + 1], zc);
-      const float sign = c.dot(m) > 0.0f ? -1.0f : 1.0f;  // toward the camera
-      out[3 * x] = keep_if(ok, sign * c.x());
-      out[3 * x + 1] = keep_if(ok, sign * c.y());
-      out[3 * x + 2] = keep_if(ok, sign * c.z());
-    }
+    kernels::normal_row(row, 1, w - 1, n->data());
   }
 }
 
