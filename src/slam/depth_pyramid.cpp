@@ -14,11 +14,9 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kTap[4] = {1.0f, 3.0f, 3.0f, 1.0f};  // binomial weights of the 4x4 window, per axis
 
-// Coarse depth at (x, y), written once for a pixel whose window lies inside the finer image
-// (kInterior: no bounds tests) and for a border pixel (taps outside the image are skipped).
-// Branch-free (only selects): a block without depth runs through with ref = NaN, which no tap
-// takes, and gives 0 at the end; so a row of interior pixels is one loop the compiler vectorises.
-template <bool kInterior>
+// Coarse depth at (x, y) of a border pixel (taps outside the finer image are skipped): the rule of
+// kernels/pyramid_row.h, whose kernel does the interior pixels. A block without depth runs through
+// with ref = NaN, which no tap takes, and gives 0 at the end.
 float coarse_depth_at(const Image<float>& fine, int x, int y, float thr) {
   const int fw = fine.width(), fh = fine.height();
   const float* r0 = fine.data() + static_cast<std::size_t>(2 * y) * fw + 2 * x;
@@ -36,11 +34,11 @@ float coarse_depth_at(const Image<float>& fine, int x, int y, float thr) {
   float sum = 0.0f, weight = 0.0f;
   for (int j = 0; j < 4; ++j) {
     const int yy = 2 * y - 1 + j;
-    if (!kInterior && (yy < 0 || yy >= fh)) continue;
+    if (yy < 0 || yy >= fh) continue;
     const float* row = fine.data() + static_cast<std::size_t>(yy) * fw;
     for (int i = 0; i < 4; ++i) {
       const int xx = 2 * x - 1 + i;
-      if (!kInterior && (xx < 0 || xx >= fw)) continue;
+      if (xx < 0 || xx >= fw) continue;
       const float d = row[xx];
       const bool take = (d > 0.0f) & (std::fabs(d - ref) <= thr);
       const float wgt = kTap[i] * kTap[j];
@@ -81,7 +79,7 @@ void downsample(const Image<float>& fine, const Image<float>* fine_intensity, Im
                 Image<float>* coarse_intensity, float threshold_m) {
   const int w = coarse.width(), h = coarse.height(), fw = fine.width();
   const auto border = [&](int x, int y) {
-    const float d = coarse_depth_at<false>(fine, x, y, threshold_m);
+    const float d = coarse_depth_at(fine, x, y, threshold_m);
     coarse(x, y) = d;
     if (coarse_intensity != nullptr)
       (*coarse_intensity)(x, y) = d > 0.0f ? coarse_intensity_at(fine, *fine_intensity, x, y) : 0.0f;
