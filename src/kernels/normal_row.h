@@ -10,7 +10,7 @@
 //   a = R - L;  b = D - U                                    (per component)
 //   c = (b.y a.z - b.z a.y,  b.z a.x - b.x a.z,  b.x a.y - b.y a.x)
 //   len2 = c.x c.x + (c.y c.y + c.z c.z);  ok = ok && len2 > 0
-//   s = 1 / sqrt(len2);  n = (c.x s, c.y s, c.z s)
+//   s = 1 / sqrt(len2);  n = (c.x s, c.y s, c.z s)       (divide: r = sqrt(len2); n = (c.x / r, c.y / r, c.z / r))
 //   dot = n.x C.x + (n.y C.y + n.z C.z);  sign = dot > 0 ? -1 : 1   (toward the camera)
 //   out = ok ? (sign n.x, sign n.y, sign n.z) : (+0, +0, +0)
 // (the sums grouped as Eigen groups a 3-vector's squaredNorm and dot, which this rule replaced).
@@ -25,6 +25,9 @@ struct NormalRow {
   const float* vertex[3] = {nullptr, nullptr, nullptr};  // rows y - 1, y, y + 1, x y z per pixel, at pixel 0
   float step_x = 0;  // largest depth step to a horizontal neighbour, per metre of depth
   float step_y = 0;  // the same to a vertical neighbour
+  // Normalise by dividing by the length (the model prediction's normals) rather than multiplying by its
+  // reciprocal (the frame's): each caller's rule from before the kernel, so that no output changed.
+  bool divide = false;
 };
 
 // Writes normal[3 x + k] (k = 0, 1, 2) for x in [x_begin, x_end); needs 1 <= x_begin and x_end <=

@@ -32,8 +32,18 @@ void normal_row_ref(const NormalRow& r, int x_begin, int x_end, float* normal) {
       out[0] = out[1] = out[2] = 0.0f;
       continue;
     }
-    const float s = 1.0f / std::sqrt(len2);
-    const float nx = cx * s, ny = cy * s, nz = cz * s;
+    float nx, ny, nz;
+    if (r.divide) {
+      const float root = std::sqrt(len2);
+      nx = cx / root;
+      ny = cy / root;
+      nz = cz / root;
+    } else {
+      const float s = 1.0f / std::sqrt(len2);
+      nx = cx * s;
+      ny = cy * s;
+      nz = cz * s;
+    }
     const float dot = nx * c[0] + (ny * c[1] + nz * c[2]);
     const float sign = dot > 0.0f ? -1.0f : 1.0f;
     out[0] = sign * nx;

@@ -51,8 +51,19 @@ inline void normal_row_step(const NormalRow& r, int x, float* normal) {
   const F pz = V::sub(V::mul(bx, ay), V::mul(by, ax));
   const F len2 = V::add(V::mul(px, px), V::add(V::mul(py, py), V::mul(pz, pz)));
   ok = V::land(ok, V::gt(len2, zero));
-  const F s = V::div(one, V::sqrt(len2));  // inf or NaN where len2 is 0: such lanes are not ok
-  const F nx = V::mul(px, s), ny = V::mul(py, s), nz = V::mul(pz, s);
+  // inf or NaN where len2 is 0: such lanes are not ok.
+  F nx, ny, nz;
+  if (r.divide) {
+    const F root = V::sqrt(len2);
+    nx = V::div(px, root);
+    ny = V::div(py, root);
+    nz = V::div(pz, root);
+  } else {
+    const F s = V::div(one, V::sqrt(len2));
+    nx = V::mul(px, s);
+    ny = V::mul(py, s);
+    nz = V::mul(pz, s);
+  }
   const F dot = V::add(V::mul(nx, cx), V::add(V::mul(ny, cy), V::mul(nz, cz)));
   const F sign = V::select(V::gt(dot, zero), minus_one, one);
   V::store3(normal + 3 * x, V::select(ok, V::mul(sign, nx), zero), V::select(ok, V::mul(sign, ny), zero),

@@ -4,6 +4,7 @@
 #include "core/stopwatch.h"
 #include "slam/depth_pyramid.h"
 #include "slam/preprocess.h"
+#include "slam/vertex_normal.h"
 
 #include "kernels/splat_disc.h"
 
@@ -803,34 +804,10 @@ void fill_row(const float* __restrict iu, const float* __restrict im, const floa
 void ModelPredictor::vertex_normal(int l) {
   PredictedLevel& lv = level_[l];
   const Intrinsics& K = lv.intrinsics;
-  const int w = K.width, h = K.height;
-  const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const float d = lv.depth(x, y);
-      lv.vertex(x, y) = d > 0.0f ? K.backproject(static_cast<float>(x), static_cast<float>(y), d) : zero;
-    }
   const float cot = 1.0f / std::tan(options_.normal_min_grazing_deg * static_cast<float>(M_PI / 180.0));
-  const float step_x = cot / K.fx, step_y = cot / K.fy;  // largest depth step per metre of depth
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      Eigen::Vector3f& n = lv.normal(x, y);
-      n = zero;
-      if (x == 0 || y == 0 || x == w - 1 || y == h - 1) continue;
-      const Eigen::Vector3f& c = lv.vertex(x, y);
-      const Eigen::Vector3f &left = lv.vertex(x - 1, y), &right = lv.vertex(x + 1, y);
-      const Eigen::Vector3f &up = lv.vertex(x, y - 1), &down = lv.vertex(x, y + 1);
-      const float z = c.z(), max_dx = z * step_x, max_dy = z * step_y;
-      const bool smooth = z > 0.0f && left.z() > 0.0f && right.z() > 0.0f && up.z() > 0.0f && down.z() > 0.0f &&
-                          std::fabs(left.z() - z) <= max_dx && std::fabs(right.z() - z) <= max_dx &&
-                          std::fabs(up.z() - z) <= max_dy && std::fabs(down.z() - z) <= max_dy;
-      if (!smooth) continue;
-      Eigen::Vector3f cr = (down - up).cross(right - left);
-      const float len2 = cr.squaredNorm();
-      if (!(len2 > 0.0f)) continue;
-      cr /= std::sqrt(len2);
-      n = cr.dot(c) > 0.0f ? Eigen::Vector3f(-cr) : cr;
-    }
+  // Largest depth step per metre of depth; the normals divided by their length (this file's rule
+  // before slam/vertex_normal.h, kept so that no prediction changed).
+  vertex_normal_maps(lv.depth, K, cot / K.fx, cot / K.fy, /*divide=*/true, lv.vertex, lv.normal);
 }
 
 // Sobel / 8 of the intensity (grey levels per pixel of level l). A neighbour without a prediction (or

@@ -3,8 +3,8 @@
 
 #include "core/stopwatch.h"
 #include "kernels/bilateral_row.h"
-#include "kernels/normal_row.h"
 #include "slam/depth_pyramid.h"
+#include "slam/vertex_normal.h"
 
 #include <algorithm>
 #include <chrono>
@@ -190,60 +190,13 @@ void Preprocessor::bilateral() {
   }
 }
 
-// Vertex map V(u) = D(u) K^-1 [u, 1] and normal map N(u) = normalise((V(x, y+1) - V(x, y-1)) x
-// (V(x+1, y) - V(x-1, y))) (KinectFusion section 3.2, with central instead of forward differences,
-// so the normal belongs to the pixel's own centre). That cross product points toward the camera for
-// a surface seen from its front; it is flipped if noise makes n . v > 0.
-namespace {
-
-// `value` where `keep`, else +0.0f, by a bit mask: GCC turns a select whose arm alone uses a
-// division into a branch around the stores, which it does not vectorise; the mask form it does.
-inline float keep_if(bool keep, float value) {
-  uint32_t bits;
-  std::memcpy(&bits, &value, sizeof bits);
-  bits &= 0u - static_cast<uint32_t>(keep);
-  float out;
-  std::memcpy(&out, &bits, sizeof out);
-  return out;
-}
-
-}  // namespace
-
+// The vertex and normal maps of level l (slam/vertex_normal.h).
 void Preprocessor::vertex_normal(int l) {
   PyramidLevel& lv = levels_[l];
   const Intrinsics& K = lv.intrinsics;
-  const int w = K.width, h = K.height;
-  const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
-  // The vertices: branch-free over a row (every value computed, then selects), reading and writing
-  // the vectors component by component, so that the compiler vectorises it.
-  for (int y = 0; y < h; ++y) {
-    const float* d = lv.depth.data() + static_cast<std::size_t>(y) * w;
-    float* v = lv.vertex.data()[static_cast<std::size_t>(y) * w].data();  // x, y, z per pixel
-    for (int x = 0; x < w; ++x) {
-      const Eigen::Vector3f p = K.backproject(static_cast<float>(x), static_cast<float>(y), d[x]);
-      const bool valid = d[x] > 0.0f;
-      v[3 * x] = keep_if(valid, p.x());
-      v[3 * x + 1] = keep_if(valid, p.y());
-      v[3 * x + 2] = keep_if(valid, p.z());
-    }
-  }
   // Largest depth step per unit depth between horizontal / vertical neighbours: 1 / (f tan(angle)).
   const float inv_tan = 1.0f / std::tan(options_.normal_min_grazing_deg * (kPi / 180.0f));
-  kernels::NormalRow row;
-  row.step_x = inv_tan / K.fx;
-  row.step_y = inv_tan / K.fy;
-  // The interior of each row by kernels/normal_row (SIMD across the row, bit-identical to its scalar
-  // twin, which states the rule); the border has no normal.
-  for (int y = 0; y < h; ++y) {
-    Eigen::Vector3f* n = lv.normal.data() + static_cast<std::size_t>(y) * w;
-    if (y == 0 || y == h - 1 || w < 3) {
-      for (int x = 0; x < w; ++x) n[x] = zero;
-      continue;
-    }
-    for (int k = 0; k < 3; ++k) row.vertex[k] = lv.vertex.data()[static_cast<std::size_t>(y - 1 + k) * w].data();
-    n[0] = n[w - 1] = zero;
-    kernels::normal_row(row, 1, w - 1, n->data());
-  }
+  vertex_normal_maps(lv.depth, K, inv_tan / K.fx, inv_tan / K.fy, /*divide=*/false, lv.vertex, lv.normal);
 }
 
 void Preprocessor::grey(ImageView<const Rgb8> color) {

@@ -34,8 +34,9 @@ struct VertexRows {
     v[k][3 * x + 1] = ok ? ((vv - kCentre) * d) / kFocal : 0.0f;
     v[k][3 * x + 2] = ok ? d : 0.0f;
   }
-  NormalRow params() const {
+  NormalRow params(bool divide = false) const {
     NormalRow r;
+    r.divide = divide;
     for (int k = 0; k < 3; ++k) r.vertex[k] = v[k].data();
     const float inv_tan = 1.0f / std::tan(5.0f * 3.14159265f / 180.0f);  // 5 degrees from grazing
     r.step_x = inv_tan / kFocal;
@@ -78,6 +79,10 @@ TEST(NormalRow, ReferenceGivesThePlanesNormalFacingTheCamera) {
     EXPECT_NEAR(o[2], n[2] / len, 2e-3) << x;
     EXPECT_NEAR(o[0] * o[0] + o[1] * o[1] + o[2] * o[2], 1.0f, 1e-5f) << x;
   }
+  // Dividing by the length instead of multiplying by its reciprocal: the same normals within rounding.
+  std::vector<float> divided(3 * w, -7.0f);
+  normal_row_ref(rows.params(true), 1, w - 1, divided.data());
+  for (int i = 3; i < 3 * (w - 1); ++i) EXPECT_NEAR(divided[i], out[i], 1e-6f) << i;
   // A plane seen at a grazing angle (the depth step between neighbours beyond 5 degrees): no normal.
   VertexRows steep(8);
   for (int k = 0; k < 3; ++k)
@@ -114,13 +119,16 @@ TEST(NormalRow, EveryVariantEqualsTheReferenceBitForBit) {
       std::mt19937 rng(500u * static_cast<unsigned>(n) + static_cast<unsigned>(rep));
       const int w = n + 2;
       const VertexRows rows = random_vertex_rows(rng, w);
-      std::vector<float> want(3 * w, -7.0f);
-      normal_row_ref(rows.params(), 1, n + 1, want.data());
-      for (int x = 1; x <= n; ++x) with_normal += want[3 * x + 2] != 0.0f;
-      for (const auto* v : variants) {
-        std::vector<float> got(3 * w, -7.0f);
-        v->fn(rows.params(), 1, n + 1, got.data());
-        EXPECT_EQ(std::memcmp(got.data(), want.data(), sizeof(float) * 3 * w), 0) << v->name << " n " << n << " rep " << rep;
+      for (bool divide : {false, true}) {
+        std::vector<float> want(3 * w, -7.0f);
+        normal_row_ref(rows.params(divide), 1, n + 1, want.data());
+        for (int x = 1; x <= n; ++x) with_normal += want[3 * x + 2] != 0.0f;
+        for (const auto* v : variants) {
+          std::vector<float> got(3 * w, -7.0f);
+          v->fn(rows.params(divide), 1, n + 1, got.data());
+          EXPECT_EQ(std::memcmp(got.data(), want.data(), sizeof(float) * 3 * w), 0)
+              << v->name << " n " << n << " rep " << rep << " divide " << divide;
+        }
       }
     }
   }
