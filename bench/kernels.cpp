@@ -4,8 +4,9 @@
 // median time per call and the throughput (depth: GB/s of uint16 input + float output; dot: GOP/s,
 // counting one multiply and one add per element pair; normal equations: million rows/s of
 // 8-float Gauss-Newton rows; fusion gates and the bilateral filter: million pixels/s of one 320x240
-// frame; pyramid rows: million coarse pixels/s of a 160x120 level; normal rows: million pixels/s of a
-// 320x240 vertex map). Pin the CPU and close other work first.
+// frame; pyramid rows: million coarse pixels/s of a 160x120 level; normal rows and the prediction's
+// gradient and hole rows: million pixels/s of a 320x240 image). Pin the CPU and close other work
+// first.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -19,6 +20,7 @@
 #include "kernels/depth_u16_to_metres_variants.h"
 #include "kernels/dot_i8_variants.h"
 #include "kernels/fusion_gates_variants.h"
+#include "kernels/gradient_fill_row_variants.h"
 #include "kernels/normal_row_variants.h"
 #include "kernels/pyramid_row_variants.h"
 #include "kernels/reduce_normal_equations_variants.h"
@@ -267,6 +269,36 @@ int main(int argc, char** argv) {
             for (int y = 1; y < kH - 1; ++y) {
               for (int k = 0; k < 3; ++k) r.vertex[k] = vertex.data() + 3 * (y - 1 + k) * kW;
               v.fn(r, 1, kW - 1, normal.data() + 3 * y * kW);
+            }
+          },
+          reps, min_ms);
+      std::printf("  %-34s %9.1f us  %7.1f Mpixels/s\n", v.name, s * 1e6, (kW - 2) * (kH - 2) / s * 1e-6);
+    }
+  }
+  // The prediction's gradients and filled holes over one 320x240 level: a textured surface, 20% holes.
+  {
+    constexpr int kW = 320, kH = 240;
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    std::vector<float> grey(kW * kH), depth(kW * kH), gx(kW * kH), gy(kW * kH), filled(kW);
+    for (int k = 0; k < kW * kH; ++k) {
+      depth[k] = u(rng) < 0.2f ? 0.0f : 2.0f;
+      grey[k] = 255.0f * u(rng);
+    }
+    std::printf("\ngradient_fill_row, one %dx%d level\n", kW, kH);
+    for (const auto& v : kGradientFillRowVariants) {
+      if (!isa_available(v.isa, cpu)) {
+        std::printf("  %-34s skipped (CPU lacks %s)\n", v.name, isa_name(v.isa));
+        continue;
+      }
+      const double s = median_seconds_per_call(
+          [&] {
+            GradientFillRow r;
+            for (int y = 1; y < kH - 1; ++y) {
+              for (int k = 0; k < 3; ++k) {
+                r.intensity[k] = grey.data() + (y - 1 + k) * kW;
+                r.depth[k] = depth.data() + (y - 1 + k) * kW;
+              }
+              v.fn(r, 1, kW - 1, gx.data() + y * kW, gy.data() + y * kW, filled.data());
             }
           },
           reps, min_ms);

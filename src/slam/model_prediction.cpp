@@ -2,6 +2,7 @@
 #include "slam/model_prediction.h"
 
 #include "core/stopwatch.h"
+#include "kernels/gradient_fill_row.h"
 #include "slam/depth_pyramid.h"
 #include "slam/preprocess.h"
 #include "slam/vertex_normal.h"
@@ -243,8 +244,7 @@ Status ModelPredictor::predict_seen(const SurfelPool& pool, const SE3& T_world_c
                                  options_.pyramid_depth_threshold_m);
       vertex_normal(l);
     }
-    gradients(l);
-    fill_holes(l);
+    gradients_and_holes(l);
   }
   timings_.pyramid_ms = lap_ms(t);
   timings_.total_ms = std::chrono::duration<double, std::milli>(t - start).count();
@@ -718,15 +718,15 @@ namespace {
 // for a border pixel (taps outside the image are skipped). Validity is depth > 0 throughout (vertex z
 // = depth).
 
-// Sobel / 8 at (x, y) (see gradients): taps without depth, or outside the image, take the centre's
-// value; 0 at a pixel without depth.
-template <bool kInterior>
+// Sobel / 8 at a border pixel (x, y) (the rule of kernels/gradient_fill_row.h, whose kernel does the
+// interior): taps without depth, or outside the image, take the centre's value; 0 at a pixel without
+// depth.
 void gradient_at(const Image<float>& depth, const Image<float>& intensity, int x, int y, float* gx, float* gy) {
   const int w = depth.width(), h = depth.height();
   const std::size_t c = static_cast<std::size_t>(y) * w + x;
   const float centre = intensity.data()[c];
   const auto tap = [&](int dx, int dy) {
-    if (!kInterior && (x + dx < 0 || y + dy < 0 || x + dx >= w || y + dy >= h)) return centre;
+    if (x + dx < 0 || y + dy < 0 || x + dx >= w || y + dy >= h) return centre;
     const std::size_t k = c + static_cast<std::ptrdiff_t>(dy) * w + dx;
     return depth.data()[k] > 0.0f ? intensity.data()[k] : centre;
   };
@@ -736,58 +736,6 @@ void gradient_at(const Image<float>& depth, const Image<float>& intensity, int x
   const bool valid = depth.data()[c] > 0.0f;
   *gx = valid ? ((ur + 2.0f * r + dr) - (ul + 2.0f * l + dl)) * 0.125f : 0.0f;
   *gy = valid ? ((dl + 2.0f * d + dr) - (ul + 2.0f * u + ur)) * 0.125f : 0.0f;
-}
-
-// Interior of one row of gradients(): pixels 1 .. w-2 of the row whose intensity / depth rows above,
-// at and below are iu, im, id / du, dm, dd. Vectorised (GCC 12, SSE4.1 / NEON): every load is a
-// statement of its own and only loaded values are selected (GCC does not speculate a load inside the
-// arm of a select), and the gradients are zeroed where there is no prediction in a second loop (a
-// select between them and 0 in the first would have GCC move the arithmetic into the select's arm,
-// which it then does not if-convert).
-void gradient_row(const float* __restrict iu, const float* __restrict im, const float* __restrict id,
-                  const float* __restrict du, const float* __restrict dm, const float* __restrict dd,
-                  float* __restrict gx, float* __restrict gy, int w) {
-  for (int x = 1; x < w - 1; ++x) {
-    const float c = im[x];
-    const float i_ul = iu[x - 1], i_u = iu[x], i_ur = iu[x + 1], i_l = im[x - 1], i_r = im[x + 1];
-    const float i_dl = id[x - 1], i_d = id[x], i_dr = id[x + 1];
-    const float ul = du[x - 1] > 0.0f ? i_ul : c, u = du[x] > 0.0f ? i_u : c, ur = du[x + 1] > 0.0f ? i_ur : c;
-    const float le = dm[x - 1] > 0.0f ? i_l : c, ri = dm[x + 1] > 0.0f ? i_r : c;
-    const float dl = dd[x - 1] > 0.0f ? i_dl : c, d = dd[x] > 0.0f ? i_d : c, dr = dd[x + 1] > 0.0f ? i_dr : c;
-    gx[x] = ((ur + 2.0f * ri + dr) - (ul + 2.0f * le + dl)) * 0.125f;
-    gy[x] = ((dl + 2.0f * d + dr) - (ul + 2.0f * u + ur)) * 0.125f;
-  }
-  for (int x = 1; x < w - 1; ++x) {
-    const float sx = gx[x], sy = gy[x];
-    gx[x] = dm[x] > 0.0f ? sx : 0.0f;
-    gy[x] = dm[x] > 0.0f ? sy : 0.0f;
-  }
-}
-
-// Interior of one row of fill_holes() into out[1 .. w-2] (rows as in gradient_row). Vectorised the
-// same way. The mean divides by n + 1e-30, which is exactly n for n >= 1 (the tiny term rounds away)
-// and gives 0 for n = 0 (the sum is 0 then): max(n, 1) would be a select that GCC turns into a
-// division inside a branch.
-void fill_row(const float* __restrict iu, const float* __restrict im, const float* __restrict id,
-              const float* __restrict du, const float* __restrict dm, const float* __restrict dd,
-              float* __restrict out, int w) {
-  for (int x = 1; x < w - 1; ++x) {
-    const float a0 = du[x - 1], a1 = du[x], a2 = du[x + 1], a3 = dm[x - 1], a5 = dm[x + 1];
-    const float a6 = dd[x - 1], a7 = dd[x], a8 = dd[x + 1];
-    const float v0 = iu[x - 1], v1 = iu[x], v2 = iu[x + 1], v3 = im[x - 1], v5 = im[x + 1];
-    const float v6 = id[x - 1], v7 = id[x], v8 = id[x + 1];
-    const float sum = ((a0 > 0.0f ? v0 : 0.0f) + (a1 > 0.0f ? v1 : 0.0f) + (a2 > 0.0f ? v2 : 0.0f)) +
-                      ((a3 > 0.0f ? v3 : 0.0f) + (a5 > 0.0f ? v5 : 0.0f)) +
-                      ((a6 > 0.0f ? v6 : 0.0f) + (a7 > 0.0f ? v7 : 0.0f) + (a8 > 0.0f ? v8 : 0.0f));
-    const float n = (a0 > 0.0f ? 1.0f : 0.0f) + (a1 > 0.0f ? 1.0f : 0.0f) + (a2 > 0.0f ? 1.0f : 0.0f) +
-                    (a3 > 0.0f ? 1.0f : 0.0f) + (a5 > 0.0f ? 1.0f : 0.0f) + (a6 > 0.0f ? 1.0f : 0.0f) +
-                    (a7 > 0.0f ? 1.0f : 0.0f) + (a8 > 0.0f ? 1.0f : 0.0f);
-    out[x] = sum / (n + 1e-30f);
-  }
-  for (int x = 1; x < w - 1; ++x) {
-    const float own = im[x], mean = out[x];
-    out[x] = dm[x] > 0.0f ? own : mean;
-  }
 }
 
 }  // namespace
@@ -810,36 +758,22 @@ void ModelPredictor::vertex_normal(int l) {
   vertex_normal_maps(lv.depth, K, cot / K.fx, cot / K.fy, /*divide=*/true, lv.vertex, lv.normal);
 }
 
-// Sobel / 8 of the intensity (grey levels per pixel of level l). A neighbour without a prediction (or
-// beyond the border) takes the centre's value, so a hole's border is not an edge; pixels without a
-// prediction get gradient 0. Interior rows: gradient_row().
-void ModelPredictor::gradients(int l) {
+// Sobel / 8 of the intensity (grey levels per pixel of level l), and the holes of the intensity
+// filled (kernels/gradient_fill_row.h states both rules). Gradients: a neighbour without a prediction
+// (or beyond the border) takes the centre's value, so a hole's border is not an edge; pixels without
+// a prediction get gradient 0. Holes: pixels without a prediction take the mean intensity of their
+// predicted 3x3 neighbours (0 when none): the tracker samples the reference bilinearly and gates only
+// on the nearest pixel, so a sample next to a hole would otherwise blend in black. Both read only
+// predicted pixels, and the filling writes only the others, so one pass does both and rows can be
+// finished one by one: the border pixels here, each interior row by the kernel (its filled row into
+// a scratch row, copied back).
+void ModelPredictor::gradients_and_holes(int l) {
   PredictedLevel& lv = level_[l];
   const int w = lv.intrinsics.width, h = lv.intrinsics.height;
-  const auto border = [&](int x, int y) { gradient_at<false>(lv.depth, lv.intensity, x, y, &lv.grad_x(x, y), &lv.grad_y(x, y)); };
-  for (int x = 0; x < w; ++x) {
-    border(x, 0);
-    border(x, h - 1);
-  }
-  for (int y = 1; y < h - 1; ++y) {
-    border(0, y);
-    border(w - 1, y);
-    const std::size_t row = static_cast<std::size_t>(y) * w;
-    const float* iu = lv.intensity.data() + row - w;
-    const float* du = lv.depth.data() + row - w;
-    gradient_row(iu, iu + w, iu + 2 * w, du, du + w, du + 2 * w, lv.grad_x.data() + row, lv.grad_y.data() + row, w);
-  }
-}
-
-// Pixels without a prediction take the mean intensity of their predicted 3x3 neighbours (0 when
-// none): the tracker samples the reference bilinearly and gates only on the nearest pixel, so a
-// sample next to a hole would otherwise blend in black. Only predicted pixels are read, and they are
-// never written, so rows can be finished one by one; each interior row is computed into a scratch
-// row by fill_row() and copied back.
-void ModelPredictor::fill_holes(int l) {
-  PredictedLevel& lv = level_[l];
-  const int w = lv.intrinsics.width, h = lv.intrinsics.height;
-  const auto border = [&](int x, int y) {
+  const auto gradient_border = [&](int x, int y) {
+    gradient_at(lv.depth, lv.intensity, x, y, &lv.grad_x(x, y), &lv.grad_y(x, y));
+  };
+  const auto fill_border = [&](int x, int y) {
     if (lv.depth(x, y) > 0.0f) return;
     float sum = 0.0f;
     int n = 0;
@@ -851,19 +785,27 @@ void ModelPredictor::fill_holes(int l) {
       }
     lv.intensity(x, y) = n > 0 ? sum / static_cast<float>(n) : 0.0f;
   };
-  for (int x = 0; x < w; ++x) {
-    border(x, 0);
-    border(x, h - 1);
-  }
-  float* out = row_scratch_.data();
-  for (int y = 1; y < h - 1; ++y) {
+  const auto border = [&](int x, int y) {
+    gradient_border(x, y);
+    fill_border(x, y);
+  };
+  const bool interior = w >= 3 && h >= 3;
+  for (int y = 0; y < h; ++y) {
+    if (y == 0 || y == h - 1 || !interior) {
+      for (int x = 0; x < w; ++x) border(x, y);
+      continue;
+    }
     border(0, y);
     border(w - 1, y);
     const std::size_t row = static_cast<std::size_t>(y) * w;
-    const float* iu = lv.intensity.data() + row - w;
-    const float* du = lv.depth.data() + row - w;
-    fill_row(iu, iu + w, iu + 2 * w, du, du + w, du + 2 * w, out, w);
-    std::memcpy(lv.intensity.data() + row + 1, out + 1, static_cast<std::size_t>(w - 2) * sizeof(float));
+    kernels::GradientFillRow r;
+    for (int k = 0; k < 3; ++k) {
+      r.intensity[k] = lv.intensity.data() + row + static_cast<std::size_t>(k) * w - w;
+      r.depth[k] = lv.depth.data() + row + static_cast<std::size_t>(k) * w - w;
+    }
+    float* filled = row_scratch_.data();
+    kernels::gradient_fill_row(r, 1, w - 1, lv.grad_x.data() + row, lv.grad_y.data() + row, filled);
+    std::memcpy(lv.intensity.data() + row + 1, filled + 1, static_cast<std::size_t>(w - 2) * sizeof(float));
   }
 }
 

@@ -240,8 +240,7 @@ class ModelPredictor {
   void render(const SurfelPool& pool, const Pose& pose, PredictionCounters& counters);
   void resolve(const SurfelPool& pool, const Pose& pose);
   void vertex_normal(int l);
-  void gradients(int l);
-  void fill_holes(int l);
+  void gradients_and_holes(int l);
 
   PredictionOptions options_;
   int levels_ = 0;
