@@ -713,11 +713,6 @@ void ModelPredictor::resolve(const SurfelPool& pool, const Pose& pose) {
 
 namespace {
 
-// The per-pixel work of the coarse levels is written once, for a pixel whose window lies inside the
-// image (kInterior: no bounds tests; selects rather than branches for the data-dependent tests) and
-// for a border pixel (taps outside the image are skipped). Validity is depth > 0 throughout (vertex z
-// = depth).
-
 // Sobel / 8 at a border pixel (x, y) (the rule of kernels/gradient_fill_row.h, whose kernel does the
 // interior): taps without depth, or outside the image, take the centre's value; 0 at a pixel without
 // depth.
