@@ -6,6 +6,7 @@
 
 #include <cstdint>
 
+#include "kernels/f32_ops_avx512.h"
 #include "kernels/normal_row_simd.h"
 
 namespace ef::kernels {
@@ -36,11 +37,7 @@ struct Tables {
 };
 constexpr Tables kTables;
 
-struct Avx512 {
-  using F = __m512;
-  using M = __mmask16;
-  static constexpr int kWidth = 16;
-  static F set1(float x) { return _mm512_set1_ps(x); }
+struct Avx512 : F32Avx512 {
   static __m512i idx(const int32_t* t) { return _mm512_loadu_si512(t); }
   static void load3(const float* p, F& x, F& y, F& z) {
     const F a = _mm512_loadu_ps(p), b = _mm512_loadu_ps(p + 16), c = _mm512_loadu_ps(p + 32);
@@ -56,17 +53,6 @@ struct Avx512 {
       _mm512_storeu_ps(p + 16 * s, _mm512_permutex2var_ps(xy, idx(kTables.scatter_z[s]), z));
     }
   }
-  static F add(F a, F b) { return _mm512_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm512_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm512_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm512_div_ps(a, b); }
-  // The zero-masked form with every lane: GCC 12's _mm512_sqrt_ps trips -Werror=uninitialized.
-  static F sqrt(F a) { return _mm512_maskz_sqrt_ps(0xFFFF, a); }
-  static F abs(F a) { return _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(a), _mm512_set1_epi32(INT32_MAX))); }
-  static M gt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
-  static M le(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
-  static M land(M a, M b) { return static_cast<M>(a & b); }
-  static F select(M m, F a, F b) { return _mm512_mask_blend_ps(m, b, a); }
 };
 }  // namespace
 

@@ -5,17 +5,13 @@
 
 #include <cstdint>
 
+#include "kernels/f32_ops_avx2.h"
 #include "kernels/pyramid_row_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Avx2 {
-  using F = __m256;
-  using M = __m256;
-  static constexpr int kWidth = 8;
-  static F set1(float x) { return _mm256_set1_ps(x); }
-  static void store(float* p, F x) { _mm256_storeu_ps(p, x); }
+struct Avx2 : F32Avx2 {
   static void load2(const float* p, F& even, F& odd) {
     const F a = _mm256_loadu_ps(p), b = _mm256_loadu_ps(p + 8);
     // Per half: p0 p2 p8 p10 | p4 p6 p12 p14; 64-bit pairs 0 2 1 3 give p0 p2 p4 ... p14.
@@ -23,17 +19,6 @@ struct Avx2 {
     even = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(e), _MM_SHUFFLE(3, 1, 2, 0)));
     odd = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(o), _MM_SHUFFLE(3, 1, 2, 0)));
   }
-  static F add(F a, F b) { return _mm256_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm256_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm256_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm256_div_ps(a, b); }
-  static F abs(F a) { return _mm256_and_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(INT32_MAX))); }
-  static M gt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
-  static M lt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
-  static M le(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
-  static M ne(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_NEQ_UQ); }
-  static M land(M a, M b) { return _mm256_and_ps(a, b); }
-  static F select(M m, F a, F b) { return _mm256_blendv_ps(b, a, m); }
 };
 }  // namespace
 

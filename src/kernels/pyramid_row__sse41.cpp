@@ -4,33 +4,18 @@
 
 #include <cstdint>
 
+#include "kernels/f32_ops_sse41.h"
 #include "kernels/pyramid_row_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Sse41 {
-  using F = __m128;
-  using M = __m128;
-  static constexpr int kWidth = 4;
-  static F set1(float x) { return _mm_set1_ps(x); }
-  static void store(float* p, F x) { _mm_storeu_ps(p, x); }
+struct Sse41 : F32Sse41 {
   static void load2(const float* p, F& even, F& odd) {
     const F a = _mm_loadu_ps(p), b = _mm_loadu_ps(p + 4);
     even = _mm_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0));
     odd = _mm_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1));
   }
-  static F add(F a, F b) { return _mm_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm_div_ps(a, b); }
-  static F abs(F a) { return _mm_and_ps(a, _mm_castsi128_ps(_mm_set1_epi32(INT32_MAX))); }
-  static M gt(F a, F b) { return _mm_cmpgt_ps(a, b); }
-  static M lt(F a, F b) { return _mm_cmplt_ps(a, b); }
-  static M le(F a, F b) { return _mm_cmple_ps(a, b); }
-  static M ne(F a, F b) { return _mm_cmpneq_ps(a, b); }
-  static M land(M a, M b) { return _mm_and_ps(a, b); }
-  static F select(M m, F a, F b) { return _mm_blendv_ps(b, a, m); }
 };
 }  // namespace
 
