@@ -21,6 +21,12 @@ What it does:
 The int8 export (export.py) and the int8 agreement (`--evaluate`) are separate steps
 (models/distill.sh runs all of them).
 
+Training elsewhere (a GPU machine without the binary or ../shared): `--pack FILE` writes the
+prepared data to one file (write_pack says what it keeps exactly and what it rounds), `--from-pack
+FILE --device cuda` trains from it, and models/distill_sweep.sh trains several students at once from
+one pack. `--width` makes a wider student from random weights (net.EdgeSegNet), `--max-zoom` adds
+scale augmentation, `--time-budget-s` shortens a run whose first epoch shows it would not fit.
+
     /usr/bin/python3 -m edgefusion_models.distill --evaluate --edgefusion BIN --teacher T.efm \\
         --student S.efm [--baseline B.efm] --source URI --holdout-from 700 [--json OUT]
 
@@ -38,10 +44,11 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 
 import numpy as np
 
-from .net import DEPTH_MAX_M, INPUT_HEIGHT, INPUT_WIDTH, NUM_CLASSES, CLASS_NAMES
+from .net import INPUT_HEIGHT, INPUT_WIDTH, NUM_CLASSES, CLASS_NAMES
 
 # ----------------------------------------------------------------------------------------------
 # Data
@@ -116,6 +123,87 @@ def agreement(student_probs, teacher_probs):
 
 
 # ----------------------------------------------------------------------------------------------
+# A data pack: the prepared frames in one file, to train where the edgefusion binary is not at hand
+# (a lent GPU machine): `--pack FILE` writes it, `--from-pack FILE` trains from it.
+
+
+PACK_SYNTHETIC_STRIDE = 14  # one frame of each of the 360 synthetic rooms (train split: 14 frames a room)
+
+
+def _encode_images(rgb):
+    import cv2
+    blobs = [cv2.imencode(".webp", np.ascontiguousarray(f[..., ::-1]), [cv2.IMWRITE_WEBP_QUALITY, 101])[1]
+             for f in rgb]  # quality above 100: lossless
+    return np.concatenate(blobs), np.cumsum([0] + [len(b) for b in blobs]).astype(np.int64)
+
+
+def _decode_images(blob, offsets):
+    import cv2
+    return np.stack([cv2.imdecode(blob[offsets[i]:offsets[i + 1]], cv2.IMREAD_COLOR)[..., ::-1]
+                     for i in range(len(offsets) - 1)])
+
+
+def _depth_planes(depth):
+    """Depth in metres -> whole centimetres as two byte planes (low, high): deflate packs them
+    better than interleaved 16-bit values."""
+    cm = np.round(depth * 100).astype(np.uint16)
+    return np.stack([(cm & 255).astype(np.uint8), (cm >> 8).astype(np.uint8)])
+
+
+def _depth_from_planes(planes):
+    return (planes[0].astype(np.float32) + 256 * planes[1].astype(np.float32)) / 100
+
+
+def write_pack(path, rgb, depth, teacher, synth):
+    """One compressed file of what training reads: colour exact (lossless WebP), depth in whole
+    centimetres (the int8 input's depth step is 3/127 m = 2.4 cm, so the student cannot see finer),
+    the teacher's probabilities in steps of 1/255 (renormalised on reading), every
+    PACK_SYNTHETIC_STRIDE-th synthetic frame with its labels."""
+    s_rgb, s_depth, s_lab = (a[::PACK_SYNTHETIC_STRIDE] for a in synth)
+    r_blob, r_off = _encode_images(rgb)
+    s_blob, s_off = _encode_images(s_rgb)
+    np.savez_compressed(path, rgb=r_blob, rgb_offsets=r_off, depth_cm=_depth_planes(depth),
+                        teacher=np.round(teacher.transpose(3, 0, 1, 2) * 255).astype(np.uint8),  # planar: smaller
+                        synth_rgb=s_blob, synth_rgb_offsets=s_off,
+                        synth_depth_cm=_depth_planes(s_depth), synth_labels=s_lab)
+
+
+def read_pack(path):
+    """(rgb, depth in metres, teacher probabilities N x h x w x C, (synthetic rgb, depth, labels))."""
+    z = np.load(path)
+    teacher = z["teacher"].transpose(1, 2, 3, 0).astype(np.float32)
+    teacher /= np.maximum(teacher.sum(-1, keepdims=True), 1.0)
+    return (_decode_images(z["rgb"], z["rgb_offsets"]), _depth_from_planes(z["depth_cm"]), teacher,
+            (_decode_images(z["synth_rgb"], z["synth_rgb_offsets"]), _depth_from_planes(z["synth_depth_cm"]),
+             z["synth_labels"]))
+
+
+def zoom(x, target, rng, max_zoom, nearest_channels=(), nearest_target=False):
+    """Scale augmentation: each frame magnified by a random factor in [1, max_zoom] about a random
+    point that keeps the view inside the frame (a crop resampled to the full size), its targets with
+    it. x: N x C x H x W; target: N x K x H x W (probabilities) or N x H x W (class ids, nearest).
+    Channels in nearest_channels (depth) are resampled by nearest neighbour, not blended across edges."""
+    import torch
+    import torch.nn.functional as F
+    n = x.shape[0]
+    s = 1.0 / rng.uniform(1.0, max_zoom, n)  # the crop's size as a share of the frame
+    cx, cy = ((1 - s) * rng.uniform(-1, 1, n), (1 - s) * rng.uniform(-1, 1, n))
+    theta = np.zeros((n, 2, 3), np.float32)
+    theta[:, 0, 0], theta[:, 1, 1], theta[:, 0, 2], theta[:, 1, 2] = s, s, cx, cy
+    grid = F.affine_grid(torch.from_numpy(theta).to(x.device), list(x.shape), align_corners=False)
+    out = F.grid_sample(x, grid, mode="bilinear", padding_mode="border", align_corners=False)
+    if nearest_channels:
+        keep = list(nearest_channels)
+        out[:, keep] = F.grid_sample(x[:, keep], grid, mode="nearest", padding_mode="border", align_corners=False)
+    if nearest_target:
+        t = F.grid_sample(target[:, None].float(), grid, mode="nearest", padding_mode="border",
+                          align_corners=False)[:, 0].long()
+    else:
+        t = F.grid_sample(target, grid, mode="bilinear", padding_mode="border", align_corners=False)
+    return out, t
+
+
+# ----------------------------------------------------------------------------------------------
 # Training
 
 
@@ -126,7 +214,7 @@ def soft_cross_entropy(logits, target):
     return -(target * F.log_softmax(logits, dim=1)).sum(1).mean()
 
 
-def predict(model, rgb, depth, batch=32):
+def predict(model, rgb, depth, batch=32, device="cpu"):
     """Float softmax probabilities N x H x W x C."""
     import torch
     from .train import to_input
@@ -134,22 +222,15 @@ def predict(model, rgb, depth, batch=32):
     out = []
     with torch.no_grad():
         for i in range(0, rgb.shape[0], batch):
-            out.append(torch.softmax(model(to_input(rgb[i:i + batch], depth[i:i + batch])), 1).numpy())
+            x = to_input(rgb[i:i + batch], depth[i:i + batch]).to(device)
+            out.append(torch.softmax(model(x), 1).cpu().numpy())
     return np.concatenate(out).transpose(0, 2, 3, 1)
 
 
-def train(args):
-    import torch
-    import torch.nn.functional as F
+def prepare(args):
+    """The recording's frames at the student's size, the teacher's probabilities for each and the
+    synthetic rooms, made with the edgefusion binary (cached in --work-dir)."""
     from . import dataset
-    from .export import load_checkpoint
-    from .net import EdgeSegNet, count_macs
-    from .train import augment, class_weights, to_input
-
-    t_start = time.time()
-    torch.manual_seed(args.seed)
-    torch.set_num_threads(args.threads)
-    rng = np.random.default_rng(args.seed)
     work = args.work_dir
     os.makedirs(work, exist_ok=True)
     rgb, depth = convert_frames(args.edgefusion, args.source, os.path.join(work, "frames"), frames=args.frames)
@@ -159,31 +240,65 @@ def train(args):
         raise RuntimeError(f"{rgb.shape[0]} frames but {teacher.shape[0]} teacher outputs")
     if teacher.shape[-1] != NUM_CLASSES:
         raise RuntimeError(f"the teacher gives {teacher.shape[-1]} classes; the student has {NUM_CLASSES}")
+    return rgb, depth, teacher, dataset.build_split(args.edgefusion, "train", args.synthetic_dir)
+
+
+def train(args):
+    import torch
+    import torch.nn.functional as F
+    from .export import load_checkpoint
+    from .net import EdgeSegNet, count_macs
+    from .train import augment, class_weights, to_input
+
+    t_start = time.time()
+    torch.manual_seed(args.seed)
+    torch.set_num_threads(args.threads)
+    rng = np.random.default_rng(args.seed)
+    device = torch.device(args.device)
+    if args.from_pack:
+        rgb, depth, teacher, synth = read_pack(args.from_pack)
+    else:
+        rgb, depth, teacher, synth = prepare(args)
+    if args.pack:
+        write_pack(args.pack, rgb, depth, teacher, synth)
+        print(f"pack: {args.pack}, {os.path.getsize(args.pack) / 1e6:.1f} MB ({time.time() - t_start:.0f} s)")
+        return
     train_idx, held_idx = split_indices(rgb.shape[0], args.holdout_from)
-    synth = dataset.build_split(args.edgefusion, "train", args.synthetic_dir)
     print(f"data: {len(train_idx)} real training frames, {len(held_idx)} held out (from frame {args.holdout_from}), "
           f"{synth[0].shape[0]} synthetic frames; teacher outputs {teacher.shape[1]}x{teacher.shape[2]} "
           f"({time.time() - t_start:.0f} s)", flush=True)
 
-    model = load_checkpoint(args.init) if args.init else EdgeSegNet()
-    print(f"student: EdgeSegNet, {count_macs(model) / 1e6:.1f} MMAC, from {args.init or 'random weights'}",
-          flush=True)
-    weights = class_weights(synth[2])
+    model = load_checkpoint(args.init) if args.init else EdgeSegNet(width=args.width)
+    print(f"student: EdgeSegNet width {model.width:g}, {count_macs(model.cpu()) / 1e6:.1f} MMAC, from "
+          f"{args.init or 'random weights'}, on {device}", flush=True)
+    model.to(device)
+    weights = class_weights(synth[2]).to(device)
     held_teacher = teacher[held_idx]
 
     def held_agreement():
-        a, _ = agreement(predict(model, rgb[held_idx], depth[held_idx]), held_teacher)
+        a, _ = agreement(predict(model, rgb[held_idx], depth[held_idx], device=device), held_teacher)
         return a
 
     start = held_agreement()
     print(f"before: float student agrees with the teacher on {100 * start:.2f}% of held-out pixels", flush=True)
     half = args.batch // 2
     steps_per_epoch = len(train_idx) // half
+    epochs = args.epochs
     opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=args.weight_decay)
-    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=args.lr, total_steps=args.epochs * steps_per_epoch,
-                                                pct_start=0.1)
+
+    def schedule(total_epochs, done_steps=0):
+        sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=args.lr, total_steps=total_epochs * steps_per_epoch,
+                                                    pct_start=0.1)
+        with warnings.catch_warnings():  # stepping a fresh schedule forward is intended here
+            warnings.simplefilter("ignore", UserWarning)
+            for _ in range(done_steps):  # resume the new schedule where the old one was
+                sched.step()
+        return sched
+
+    sched = schedule(epochs)
     history = [{"epoch": 0, "held_out_agreement": start}]
-    for epoch in range(args.epochs):
+    epoch = 0
+    while epoch < epochs:
         model.train()
         t0 = time.time()
         order = rng.permutation(train_idx)
@@ -193,11 +308,15 @@ def train(args):
             r_rgb, r_depth, r_p = augment(rgb[sel], depth[sel], teacher[sel], rng)  # flips the targets too
             s_sel = np.sort(rng.choice(synth[0].shape[0], half, replace=False))
             s_rgb, s_depth, s_lab = augment(synth[0][s_sel], synth[1][s_sel], synth[2][s_sel], rng)
-            target = F.interpolate(torch.from_numpy(np.ascontiguousarray(r_p.transpose(0, 3, 1, 2))),
+            target = F.interpolate(torch.from_numpy(np.ascontiguousarray(r_p.transpose(0, 3, 1, 2))).to(device),
                                    size=(INPUT_HEIGHT, INPUT_WIDTH), mode="bilinear", align_corners=False)
-            lr_ = soft_cross_entropy(model(to_input(r_rgb, r_depth)), target)
-            ls_ = F.cross_entropy(model(to_input(s_rgb, s_depth)), torch.from_numpy(s_lab.astype(np.int64)),
-                                  weight=weights, ignore_index=0)
+            r_x, s_x = to_input(r_rgb, r_depth).to(device), to_input(s_rgb, s_depth).to(device)
+            s_t = torch.from_numpy(s_lab.astype(np.int64)).to(device)
+            if args.max_zoom > 1.0:
+                r_x, target = zoom(r_x, target, rng, args.max_zoom, nearest_channels=(3,))
+                s_x, s_t = zoom(s_x, s_t, rng, args.max_zoom, nearest_channels=(3,), nearest_target=True)
+            lr_ = soft_cross_entropy(model(r_x), target)
+            ls_ = F.cross_entropy(model(s_x), s_t, weight=weights, ignore_index=0)
             loss = lr_ + args.synthetic_weight * ls_
             opt.zero_grad()
             loss.backward()
@@ -205,18 +324,29 @@ def train(args):
             sched.step()
             real_loss += lr_.item()
             synth_loss += ls_.item()
+        epoch += 1
         a = held_agreement()
-        history.append({"epoch": epoch + 1, "real_loss": real_loss / steps_per_epoch,
+        history.append({"epoch": epoch, "real_loss": real_loss / steps_per_epoch,
                         "synthetic_loss": synth_loss / steps_per_epoch, "held_out_agreement": a})
-        print(f"epoch {epoch + 1}/{args.epochs}: real loss {history[-1]['real_loss']:.4f}  synthetic loss "
+        print(f"epoch {epoch}/{epochs}: real loss {history[-1]['real_loss']:.4f}  synthetic loss "
               f"{history[-1]['synthetic_loss']:.4f}  held-out agreement {100 * a:.2f}%  ({time.time() - t0:.0f} s)",
               flush=True)
+        if epoch == 1 and args.time_budget_s:
+            # Fit the run into the budget: fewer epochs from the first epoch's time, the learning-rate
+            # schedule redrawn over the new length (the first epoch was warm-up either way).
+            fit = max(2, int(args.time_budget_s / max(time.time() - t0, 1e-3)))
+            if fit < epochs:
+                print(f"time budget {args.time_budget_s:.0f} s: {fit} epochs instead of {epochs}", flush=True)
+                epochs = fit
+                sched = schedule(epochs, steps_per_epoch)
+    args.epochs_run = epochs
+    model.cpu()
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-    torch.save({"model": model.state_dict(), "epoch": args.epochs, "args": vars(args)}, args.out)
+    torch.save({"model": model.state_dict(), "epoch": epochs, "args": vars(args)}, args.out)
     # Calibration frames for the int8 export: real training frames and synthetic ones, as export.py reads them.
     cal = np.sort(rng.choice(train_idx, min(64, len(train_idx)), replace=False))
-    cal_s = np.sort(rng.choice(synth[0].shape[0], 64, replace=False))
-    np.savez(os.path.splitext(args.out)[0] + "_calibration.npz",
+    cal_s = np.sort(rng.choice(synth[0].shape[0], min(64, synth[0].shape[0]), replace=False))
+    np.savez_compressed(os.path.splitext(args.out)[0] + "_calibration.npz",
              rgb=np.concatenate([rgb[cal], synth[0][cal_s]]), depth=np.concatenate([depth[cal], synth[1][cal_s]]),
              labels=np.concatenate([np.zeros((len(cal), INPUT_HEIGHT, INPUT_WIDTH), np.uint8), synth[2][cal_s]]))
     run_s = time.time() - t_start
@@ -260,9 +390,9 @@ def evaluate(args):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python3 -m edgefusion_models.distill", description=__doc__.split("\n")[0])
-    ap.add_argument("--edgefusion", required=True, help="the edgefusion binary (convert, segment)")
-    ap.add_argument("--teacher", required=True, help="the teacher's int8 model (.efm), 14 NYU classes out")
-    ap.add_argument("--source", required=True, help="the real recording (EdgeFusion source URI)")
+    ap.add_argument("--edgefusion", help="the edgefusion binary (convert, segment); not needed with --from-pack")
+    ap.add_argument("--teacher", help="the teacher's int8 model (.efm), 14 NYU classes out")
+    ap.add_argument("--source", help="the real recording (EdgeFusion source URI)")
     ap.add_argument("--holdout-from", type=int, required=True, help="frames from this one on are never trained on")
     ap.add_argument("--frames", type=int, help="read at most N frames of the source")
     ap.add_argument("--work-dir", default="/tmp/edgefusion-distill", help="converted frames and teacher outputs")
@@ -279,15 +409,31 @@ def main(argv=None):
     ap.add_argument("--lr", type=float, default=1e-3, help="peak learning rate (AdamW, one-cycle)")
     ap.add_argument("--weight-decay", type=float, default=1e-4)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--width", type=float, default=1.0,
+                    help="training with --init '': the student's channel multiplier (net.EdgeSegNet; 1 = shipped)")
+    ap.add_argument("--device", default="cpu", help="training: torch device ('cuda' on a GPU machine)")
+    ap.add_argument("--max-zoom", type=float, default=1.0,
+                    help="training: scale augmentation, frames magnified up to this factor (1 = off)")
+    ap.add_argument("--time-budget-s", type=float,
+                    help="training: fewer epochs if the first one shows the run would take longer")
+    ap.add_argument("--pack", help="write the prepared data (frames, teacher outputs, synthetic rooms) to this "
+                                   "file and stop")
+    ap.add_argument("--from-pack", help="training: read the data from a --pack file instead of the binary")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     if args.evaluate:
+        if not (args.edgefusion and args.teacher and args.source):
+            ap.error("--evaluate needs --edgefusion, --teacher and --source")
         if not args.student and not args.baseline:
             ap.error("--evaluate needs --student and/or --baseline")
         evaluate(args)
     else:
-        if not args.out:
+        if not args.out and not args.pack:
             ap.error("training needs --out")
+        if not args.from_pack and not (args.edgefusion and args.teacher and args.source):
+            ap.error("--edgefusion, --teacher and --source are needed unless --from-pack")
+        if args.init and args.width != 1.0:
+            ap.error("--width applies to a student from random weights (--init '')")
         train(args)
     return 0
 

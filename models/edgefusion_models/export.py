@@ -29,7 +29,9 @@ def load_checkpoint(path):
     state = ckpt["model"] if isinstance(ckpt, dict) and "model" in ckpt else ckpt
     if "classifier.weight" not in state:
         raise ValueError(f"{path}: not an EdgeSegNet checkpoint (no classifier.weight in the state dict)")
-    model = net.EdgeSegNet(num_classes=state["classifier.weight"].shape[0])
+    # The width multiplier follows from the stem's output channels (24 at width 1, net.channels).
+    model = net.EdgeSegNet(num_classes=state["classifier.weight"].shape[0],
+                           width=state["stem.0.weight"].shape[0] / 24.0)
     model.load_state_dict(state)
     return model.eval()
 

@@ -50,23 +50,35 @@ class DwPw(nn.Sequential):
                          ConvBNReLU6(cin, cout, 1))
 
 
+def channels(c, width):
+    """The shipped network's c channels scaled by `width` (1.0 = the shipped network), in multiples
+    of 8 (the int8 kernels' channel blocks), at least 8."""
+    return max(8, int(round(c * width / 8.0)) * 8)
+
+
 class EdgeSegNet(nn.Module):
-    def __init__(self, num_classes=NUM_CLASSES):
+    """width: channel multiplier (1.0 = the shipped network, 59 MMAC; 2.0 is about 4x the
+    multiply-adds). Only the layer widths change: the wiring and the layer names stay, so a
+    checkpoint's width follows from its stem's weight (export.load_checkpoint)."""
+
+    def __init__(self, num_classes=NUM_CLASSES, width=1.0):
         super().__init__()
-        self.stem = ConvBNReLU6(4, 24, 3, stride=2)            # 60x80x24
-        self.enc1 = DwPw(24, 32)                                # 60x80x32  (skip 1)
-        self.enc2 = nn.Sequential(DwPw(32, 64, stride=2),       # 30x40x64
-                                  DwPw(64, 64))                 # (skip 2)
-        self.enc3 = nn.Sequential(DwPw(64, 128, stride=2),      # 15x20x128
-                                  DwPw(128, 128, dilation=2),
-                                  DwPw(128, 128, dilation=4))
-        self.reduce3 = ConvBNReLU6(128, 64, 1)                  # 15x20x64
-        self.dec2 = nn.Sequential(ConvBNReLU6(128, 64, 1),      # concat(up(reduce3), skip2) 30x40
-                                  ConvBNReLU6(64, 64, 3, depthwise=True),
-                                  ConvBNReLU6(64, 32, 1))
-        self.dec1 = nn.Sequential(ConvBNReLU6(64, 32, 1),       # concat(up(dec2), skip1) 60x80
-                                  ConvBNReLU6(32, 32, 3, depthwise=True))
-        self.classifier = nn.Conv2d(32, num_classes, 1, bias=True)  # logits 60x80
+        c24, c32, c64, c128 = (channels(c, width) for c in (24, 32, 64, 128))
+        self.width = width
+        self.stem = ConvBNReLU6(4, c24, 3, stride=2)             # 60x80x24
+        self.enc1 = DwPw(c24, c32)                                # 60x80x32  (skip 1)
+        self.enc2 = nn.Sequential(DwPw(c32, c64, stride=2),       # 30x40x64
+                                  DwPw(c64, c64))                 # (skip 2)
+        self.enc3 = nn.Sequential(DwPw(c64, c128, stride=2),      # 15x20x128
+                                  DwPw(c128, c128, dilation=2),
+                                  DwPw(c128, c128, dilation=4))
+        self.reduce3 = ConvBNReLU6(c128, c64, 1)                  # 15x20x64
+        self.dec2 = nn.Sequential(ConvBNReLU6(2 * c64, c64, 1),   # concat(up(reduce3), skip2) 30x40
+                                  ConvBNReLU6(c64, c64, 3, depthwise=True),
+                                  ConvBNReLU6(c64, c32, 1))
+        self.dec1 = nn.Sequential(ConvBNReLU6(2 * c32, c32, 1),   # concat(up(dec2), skip1) 60x80
+                                  ConvBNReLU6(c32, c32, 3, depthwise=True))
+        self.classifier = nn.Conv2d(c32, num_classes, 1, bias=True)  # logits 60x80
 
     @staticmethod
     def up2(x):

@@ -6,7 +6,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from edgefusion_models import distill, train
+from edgefusion_models import distill, export, net, train
 
 
 class SoftTargets(unittest.TestCase):
@@ -77,6 +77,81 @@ class SplitAndAgreement(unittest.TestCase):
         expected = 1.0 - (t[0].argmax(-1) != 13).sum() / t.size * 14
         self.assertAlmostEqual(a, expected, places=6)
         self.assertEqual(sum(k for _, k in per_class.values()), round(a * 3 * 10 * 12))
+
+
+class PackAndAugmentation(unittest.TestCase):
+    def test_a_pack_keeps_colour_exactly_depth_to_a_centimetre_and_the_teachers_distributions(self):
+        import os
+        import tempfile
+        rng = np.random.default_rng(6)
+        n, h, w = 5, 12, 16
+        rgb = rng.integers(0, 256, (n, h, w, 3), dtype=np.uint8)
+        depth = rng.uniform(0, 8, (n, h, w)).astype(np.float32)
+        depth[0, 0, 0] = 0.0  # no depth stays no depth
+        teacher = rng.random((n, 3, 4, 14)).astype(np.float32)
+        teacher /= teacher.sum(-1, keepdims=True)
+        synth = (rng.integers(0, 256, (30, h, w, 3), dtype=np.uint8), rng.uniform(0, 6, (30, h, w)).astype(np.float32),
+                 rng.integers(0, 14, (30, h, w), dtype=np.uint8))
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "pack.npz")
+            distill.write_pack(path, rgb, depth, teacher, synth)
+            r_rgb, r_depth, r_teacher, (s_rgb, s_depth, s_lab) = distill.read_pack(path)
+        np.testing.assert_array_equal(r_rgb, rgb)
+        self.assertLessEqual(np.abs(r_depth - depth).max(), 0.005 + 1e-6)
+        self.assertEqual(r_depth[0, 0, 0], 0.0)
+        np.testing.assert_allclose(r_teacher.sum(-1), 1.0, atol=1e-5)
+        self.assertLess(np.abs(r_teacher - teacher).max(), 0.02)
+        stride = distill.PACK_SYNTHETIC_STRIDE
+        np.testing.assert_array_equal(s_rgb, synth[0][::stride])
+        np.testing.assert_array_equal(s_lab, synth[2][::stride])
+        self.assertLessEqual(np.abs(s_depth - synth[1][::stride]).max(), 0.005 + 1e-6)
+
+    def test_zoom_moves_the_frame_and_its_targets_together(self):
+        rng = np.random.default_rng(7)
+        n, h, w = 16, 24, 32
+        labels = torch.from_numpy(rng.integers(0, 14, (n, h, w))).long()
+        x = torch.zeros(n, 4, h, w)
+        x[:, 3] = labels.float()  # the depth channel carries the class id
+        x[:, 0] = torch.linspace(0, 1, w)  # a horizontal ramp
+        zx, zt = distill.zoom(x, labels, rng, 2.0, nearest_channels=(3,), nearest_target=True)
+        self.assertEqual(zt.shape, labels.shape)
+        torch.testing.assert_close(zx[:, 3], zt.float())  # the same warp, no blending of the nearest channel
+        # Magnified 1-2x: the ramp rises by 1/zoom of its step per pixel, and stays inside its range.
+        step = (zx[:, 0, :, 1:] - zx[:, 0, :, :-1]).mean(-1).mean(-1) * (w - 1)
+        self.assertTrue(bool((step <= 1 + 1e-4).all() and (step >= 0.5 - 1e-4).all()))
+        self.assertLess(float(step.mean()), 0.9)
+        self.assertTrue(bool((zx[:, 0] >= -1e-6).all() and (zx[:, 0] <= 1 + 1e-6).all()))
+        same_x, same_t = distill.zoom(x, labels, rng, 1.0, nearest_channels=(3,), nearest_target=True)
+        torch.testing.assert_close(same_x, x, atol=1e-5, rtol=0)
+        torch.testing.assert_close(same_t, labels)
+
+    def test_zoomed_probabilities_stay_distributions(self):
+        rng = np.random.default_rng(8)
+        p = torch.softmax(torch.randn(4, 14, 12, 16), 1)
+        _, zp = distill.zoom(torch.zeros(4, 4, 12, 16), p, rng, 1.7)
+        torch.testing.assert_close(zp.sum(1), torch.ones(4, 12, 16), atol=1e-5, rtol=0)
+
+
+class StudentWidth(unittest.TestCase):
+    def test_a_checkpoints_width_is_read_back_from_its_weights(self):
+        import os
+        import tempfile
+        torch.manual_seed(9)
+        model = net.EdgeSegNet(width=2.0).eval()
+        self.assertEqual(model.classifier.in_channels, 64)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "wide.pt")
+            torch.save({"model": model.state_dict()}, path)
+            back = export.load_checkpoint(path)
+        self.assertEqual(back.width, 2.0)
+        x = torch.randn(1, 4, net.INPUT_HEIGHT, net.INPUT_WIDTH)
+        with torch.no_grad():
+            torch.testing.assert_close(back(x), model(x))
+
+    def test_width_one_is_the_shipped_network(self):
+        self.assertEqual([net.channels(c, 1.0) for c in (24, 32, 64, 128)], [24, 32, 64, 128])
+        self.assertEqual(net.count_macs(net.EdgeSegNet()), 59232000)
+        self.assertGreater(net.count_macs(net.EdgeSegNet(width=2.0)), 3 * 59232000)
 
 
 if __name__ == "__main__":
