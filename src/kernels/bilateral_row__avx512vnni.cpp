@@ -4,28 +4,12 @@
 #include <immintrin.h>
 
 #include "kernels/bilateral_row_simd.h"
+#include "kernels/f32_ops_avx512.h"
 
 namespace ef::kernels {
 
-namespace {
-struct Avx512 {
-  using F = __m512;
-  using M = __mmask16;
-  static constexpr int kWidth = 16;
-  static F set1(float x) { return _mm512_set1_ps(x); }
-  static F load(const float* p) { return _mm512_loadu_ps(p); }
-  static void store(float* p, F x) { _mm512_storeu_ps(p, x); }
-  static F add(F a, F b) { return _mm512_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm512_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm512_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm512_div_ps(a, b); }
-  static M gt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
-  static F keep(M m, F a) { return _mm512_maskz_mov_ps(m, a); }
-};
-}  // namespace
-
 void bilateral_row__avx512vnni(const BilateralRow& b, int width, float* out) {
-  bilateral_row_simd<Avx512>(b, width, out);
+  bilateral_row_simd<F32Avx512>(b, width, out);
 }
 
 }  // namespace ef::kernels

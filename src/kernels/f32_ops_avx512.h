@@ -1,6 +1,6 @@
-// Internal to the AVX-512 variants of the row kernels written over a vector-ops type (pyramid_row,
-// normal_row, gradient_fill_row): the float operations they share, 16 lanes in zmm registers, masks
-// in k registers (AVX-512 F). Each family's type derives from it and adds its own loads. Internal
+// Internal to the AVX-512 variants of the kernels written over a vector-ops type (bilateral_row,
+// fusion_gates, track_rows, pyramid_row, normal_row, gradient_fill_row): the float and int32
+// operations they share, 16 lanes in zmm registers, masks in k registers (AVX-512 F). Each family's type derives from it and adds its own loads. Internal
 // linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
 #pragma once
 
@@ -13,9 +13,15 @@ namespace {
 
 struct F32Avx512 {
   using F = __m512;
+  using I = __m512i;
   using M = __mmask16;
   static constexpr int kWidth = 16;
+  // The all-lanes mask: GCC 12 warns (-Wmaybe-uninitialized) about the unmasked forms of several
+  // intrinsics, which merge into _mm512_undefined_*(); the maskz / mask forms with every lane set
+  // are the same instructions without that false warning.
+  static constexpr M kAll = static_cast<M>(0xFFFF);
   static F set1(float x) { return _mm512_set1_ps(x); }
+  static F zero() { return _mm512_setzero_ps(); }
   static F load(const float* p) { return _mm512_loadu_ps(p); }
   static void store(float* p, F x) { _mm512_storeu_ps(p, x); }
   static F add(F a, F b) { return _mm512_add_ps(a, b); }
@@ -27,12 +33,31 @@ struct F32Avx512 {
   static F abs(F a) {
     return _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(a), _mm512_set1_epi32(INT32_MAX)));
   }
+  static F neg(F a) {
+    return _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(a), _mm512_set1_epi32(INT32_MIN)));
+  }
+  static F floor(F a) { return _mm512_maskz_roundscale_ps(kAll, a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC); }
+  static F ceil(F a) { return _mm512_maskz_roundscale_ps(kAll, a, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC); }
+  static I cvtt(F a) { return _mm512_maskz_cvttps_epi32(kAll, a); }  // toward zero
+  static F cvt(I a) { return _mm512_maskz_cvtepi32_ps(kAll, a); }
   static M gt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
+  static M ge(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
   static M lt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
   static M le(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+  static M eq(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_EQ_OQ); }
   static M ne(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_NEQ_UQ); }  // true on NaN, as C++'s !=
   static M land(M a, M b) { return static_cast<M>(a & b); }
+  static M lor(M a, M b) { return static_cast<M>(a | b); }
+  static M lnot(M a) { return static_cast<M>(~a); }
+  static bool any(M m) { return m != 0; }
+  static int count(M m) { return __builtin_popcount(static_cast<unsigned>(m)); }
+  static F keep(M m, F a) { return _mm512_maskz_mov_ps(m, a); }  // a where m, else 0
   static F select(M m, F a, F b) { return _mm512_mask_blend_ps(m, b, a); }  // a where m, else b
+  static I iset1(int x) { return _mm512_set1_epi32(x); }
+  static I iadd(I a, I b) { return _mm512_add_epi32(a, b); }
+  static I imul(I a, I b) { return _mm512_mullo_epi32(a, b); }
+  static M igt(I a, I b) { return _mm512_cmpgt_epi32_mask(a, b); }
+  static I ikeep(M m, I a) { return _mm512_maskz_mov_epi32(m, a); }
 };
 
 }  // namespace

@@ -3,19 +3,13 @@
 // transpose.
 #include <immintrin.h>
 
+#include "kernels/f32_ops_avx2.h"
 #include "kernels/fusion_gates_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Avx2 {
-  using F = __m256;
-  using I = __m256i;
-  using M = __m256;
-  static constexpr int kWidth = 8;
-  static F set1(float x) { return _mm256_set1_ps(x); }
-  static F load(const float* p) { return _mm256_loadu_ps(p); }
-  static I iset1(int x) { return _mm256_set1_epi32(x); }
+struct Avx2 : F32Avx2 {
   static I iload(const int32_t* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
   static void istore(uint32_t* p, I x) { _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), x); }
   static I iota() { return _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7); }
@@ -29,20 +23,6 @@ struct Avx2 {
     y = _mm256_shuffle_ps(u0, u2, 0xEE);
     z = _mm256_shuffle_ps(u1, u3, 0x44);
   }
-  static F add(F a, F b) { return _mm256_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm256_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm256_mul_ps(a, b); }
-  static F abs(F a) { return _mm256_and_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(INT32_MAX))); }
-  static F ceil(F a) { return _mm256_ceil_ps(a); }
-  static F cvt(I a) { return _mm256_cvtepi32_ps(a); }
-  static M lt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
-  static M gt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
-  static M eq(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_EQ_OQ); }
-  static M igt(I a, I b) { return _mm256_castsi256_ps(_mm256_cmpgt_epi32(a, b)); }
-  static I iadd(I a, I b) { return _mm256_add_epi32(a, b); }
-  static M land(M a, M b) { return _mm256_and_ps(a, b); }
-  static M lor(M a, M b) { return _mm256_or_ps(a, b); }
-  static M lnot(M a) { return _mm256_xor_ps(a, _mm256_castsi256_ps(_mm256_set1_epi32(-1))); }
   static I set_bits(I c, M m, uint32_t bits) {
     return _mm256_or_si256(c, _mm256_and_si256(_mm256_castps_si256(m), _mm256_set1_epi32(static_cast<int>(bits))));
   }

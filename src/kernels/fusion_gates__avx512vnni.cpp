@@ -4,22 +4,13 @@
 // 128-bit block shuffle per component.
 #include <immintrin.h>
 
+#include "kernels/f32_ops_avx512.h"
 #include "kernels/fusion_gates_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Avx512 {
-  using F = __m512;
-  using I = __m512i;
-  using M = __mmask16;
-  static constexpr int kWidth = 16;
-  // Masked forms with every lane set: the unmasked ones merge into _mm512_undefined_*(), which GCC 12
-  // warns about (-Wmaybe-uninitialized); the instructions are the same.
-  static constexpr M kAll = static_cast<M>(0xFFFF);
-  static F set1(float x) { return _mm512_set1_ps(x); }
-  static F load(const float* p) { return _mm512_loadu_ps(p); }
-  static I iset1(int x) { return _mm512_set1_epi32(x); }
+struct Avx512 : F32Avx512 {
   static I iload(const int32_t* p) { return _mm512_loadu_si512(p); }
   static void istore(uint32_t* p, I x) { _mm512_storeu_si512(p, x); }
   static I iota() { return _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15); }
@@ -38,22 +29,6 @@ struct Avx512 {
     y = component<1>(a, b, c, d);
     z = component<2>(a, b, c, d);
   }
-  static F add(F a, F b) { return _mm512_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm512_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm512_mul_ps(a, b); }
-  static F abs(F a) {
-    return _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(a), _mm512_set1_epi32(INT32_MAX)));
-  }
-  static F ceil(F a) { return _mm512_maskz_roundscale_ps(kAll, a, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC); }
-  static F cvt(I a) { return _mm512_maskz_cvtepi32_ps(kAll, a); }
-  static M lt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
-  static M gt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
-  static M eq(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_EQ_OQ); }
-  static M igt(I a, I b) { return _mm512_cmpgt_epi32_mask(a, b); }
-  static I iadd(I a, I b) { return _mm512_add_epi32(a, b); }
-  static M land(M a, M b) { return static_cast<M>(a & b); }
-  static M lor(M a, M b) { return static_cast<M>(a | b); }
-  static M lnot(M a) { return static_cast<M>(~a); }
   static I set_bits(I c, M m, uint32_t bits) {
     return _mm512_mask_or_epi32(c, m, c, _mm512_set1_epi32(static_cast<int>(bits)));
   }

@@ -4,20 +4,13 @@
 // (contraction off; the file is built with -mfma).
 #include <immintrin.h>
 
+#include "kernels/f32_ops_avx2.h"
 #include "kernels/track_rows_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Avx2 {
-  using F = __m256;
-  using I = __m256i;
-  using M = __m256;
-  static constexpr int kWidth = 8;
-  static F set1(float x) { return _mm256_set1_ps(x); }
-  static F zero() { return _mm256_setzero_ps(); }
-  static F load(const float* p) { return _mm256_loadu_ps(p); }
-  static void store(float* p, F x) { _mm256_storeu_ps(p, x); }
+struct Avx2 : F32Avx2 {
   template <int comp>
   static F component(F a, F b, F c) {
 #define EF_P(k) tr_perm(kWidth, comp, k)
@@ -33,30 +26,6 @@ struct Avx2 {
     y = component<1>(a, b, c);
     z = component<2>(a, b, c);
   }
-  static F add(F a, F b) { return _mm256_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm256_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm256_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm256_div_ps(a, b); }
-  static F neg(F a) { return _mm256_xor_ps(a, _mm256_set1_ps(-0.0f)); }
-  static F abs(F a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
-  static F floor(F a) { return _mm256_floor_ps(a); }
-  static I cvtt(F a) { return _mm256_cvttps_epi32(a); }
-  static F cvt(I a) { return _mm256_cvtepi32_ps(a); }
-  static I iset1(int x) { return _mm256_set1_epi32(x); }
-  static I iadd(I a, I b) { return _mm256_add_epi32(a, b); }
-  static I imul(I a, I b) { return _mm256_mullo_epi32(a, b); }
-  static M lt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
-  static M le(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
-  static M gt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_GT_OQ); }
-  static M ge(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_GE_OQ); }
-  static M ne(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_NEQ_UQ); }
-  static M land(M a, M b) { return _mm256_and_ps(a, b); }
-  static M lor(M a, M b) { return _mm256_or_ps(a, b); }
-  static bool any(M m) { return _mm256_movemask_ps(m) != 0; }
-  static int count(M m) { return __builtin_popcount(static_cast<unsigned>(_mm256_movemask_ps(m))); }
-  static F keep(M m, F a) { return _mm256_and_ps(m, a); }
-  static F select(M m, F a, F b) { return _mm256_blendv_ps(b, a, m); }
-  static I ikeep(M m, I a) { return _mm256_and_si256(_mm256_castps_si256(m), a); }
   static F gather(const float* base, I idx) { return _mm256_i32gather_ps(base, idx, 4); }
   // Two VGATHERDPD of 4 float pairs: [a0 b0 a1 b1 | a2 b2 a3 b3] and [a4 b4 .. | ..]; a SHUFPS picks
   // the even (odd) floats per 128-bit half, a VPERMPD puts the halves in order.

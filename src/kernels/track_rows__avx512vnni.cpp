@@ -5,24 +5,13 @@
 // current frame are de-interleaved with two masked blends and one VPERMPS per component.
 #include <immintrin.h>
 
+#include "kernels/f32_ops_avx512.h"
 #include "kernels/track_rows_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Avx512 {
-  using F = __m512;
-  using I = __m512i;
-  using M = __mmask16;
-  static constexpr int kWidth = 16;
-  // The all-lanes mask: GCC 12 warns (-Wmaybe-uninitialized) about the unmasked forms of several
-  // intrinsics, which merge into _mm512_undefined_*(); the maskz / mask forms with every lane set
-  // are the same instructions without that false warning.
-  static constexpr M kAll = static_cast<M>(0xFFFF);
-  static F set1(float x) { return _mm512_set1_ps(x); }
-  static F zero() { return _mm512_setzero_ps(); }
-  static F load(const float* p) { return _mm512_loadu_ps(p); }
-  static void store(float* p, F x) { _mm512_storeu_ps(p, x); }
+struct Avx512 : F32Avx512 {
   template <int comp>
   static F component(F a, F b, F c) {
 #define EF_P(k) tr_perm(kWidth, comp, k)
@@ -38,34 +27,6 @@ struct Avx512 {
     y = component<1>(a, b, c);
     z = component<2>(a, b, c);
   }
-  static F add(F a, F b) { return _mm512_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm512_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm512_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm512_div_ps(a, b); }
-  static F neg(F a) {
-    return _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(a), _mm512_set1_epi32(INT32_MIN)));
-  }
-  static F abs(F a) {
-    return _mm512_castsi512_ps(_mm512_and_si512(_mm512_castps_si512(a), _mm512_set1_epi32(INT32_MAX)));
-  }
-  static F floor(F a) { return _mm512_maskz_roundscale_ps(kAll, a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC); }
-  static I cvtt(F a) { return _mm512_maskz_cvttps_epi32(kAll, a); }
-  static F cvt(I a) { return _mm512_maskz_cvtepi32_ps(kAll, a); }
-  static I iset1(int x) { return _mm512_set1_epi32(x); }
-  static I iadd(I a, I b) { return _mm512_add_epi32(a, b); }
-  static I imul(I a, I b) { return _mm512_mullo_epi32(a, b); }
-  static M lt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LT_OQ); }
-  static M le(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
-  static M gt(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_GT_OQ); }
-  static M ge(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_GE_OQ); }
-  static M ne(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_NEQ_UQ); }
-  static M land(M a, M b) { return static_cast<M>(a & b); }
-  static M lor(M a, M b) { return static_cast<M>(a | b); }
-  static bool any(M m) { return m != 0; }
-  static int count(M m) { return __builtin_popcount(static_cast<unsigned>(m)); }
-  static F keep(M m, F a) { return _mm512_maskz_mov_ps(m, a); }
-  static F select(M m, F a, F b) { return _mm512_mask_blend_ps(m, b, a); }
-  static I ikeep(M m, I a) { return _mm512_maskz_mov_epi32(m, a); }
   static F gather(const float* base, I idx) { return _mm512_mask_i32gather_ps(zero(), kAll, idx, base, 4); }
   // Two VGATHERDPD of 8 float pairs, then the even and the odd floats of the 16 pairs.
   static void gather2(const float* base, I idx, F& lo, F& hi) {

@@ -4,20 +4,13 @@
 // de-interleaved with two blends and one shuffle per component.
 #include <smmintrin.h>
 
+#include "kernels/f32_ops_sse41.h"
 #include "kernels/track_rows_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Sse41 {
-  using F = __m128;
-  using I = __m128i;
-  using M = __m128;
-  static constexpr int kWidth = 4;
-  static F set1(float x) { return _mm_set1_ps(x); }
-  static F zero() { return _mm_setzero_ps(); }
-  static F load(const float* p) { return _mm_loadu_ps(p); }
-  static void store(float* p, F x) { _mm_storeu_ps(p, x); }
+struct Sse41 : F32Sse41 {
   template <int comp>
   static F component(F a, F b, F c) {
     constexpr int from_b = static_cast<int>(tr_mask(kWidth, comp, 1)),
@@ -33,30 +26,6 @@ struct Sse41 {
     y = component<1>(a, b, c);
     z = component<2>(a, b, c);
   }
-  static F add(F a, F b) { return _mm_add_ps(a, b); }
-  static F sub(F a, F b) { return _mm_sub_ps(a, b); }
-  static F mul(F a, F b) { return _mm_mul_ps(a, b); }
-  static F div(F a, F b) { return _mm_div_ps(a, b); }
-  static F neg(F a) { return _mm_xor_ps(a, _mm_set1_ps(-0.0f)); }
-  static F abs(F a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
-  static F floor(F a) { return _mm_floor_ps(a); }
-  static I cvtt(F a) { return _mm_cvttps_epi32(a); }
-  static F cvt(I a) { return _mm_cvtepi32_ps(a); }
-  static I iset1(int x) { return _mm_set1_epi32(x); }
-  static I iadd(I a, I b) { return _mm_add_epi32(a, b); }
-  static I imul(I a, I b) { return _mm_mullo_epi32(a, b); }
-  static M lt(F a, F b) { return _mm_cmplt_ps(a, b); }
-  static M le(F a, F b) { return _mm_cmple_ps(a, b); }
-  static M gt(F a, F b) { return _mm_cmpgt_ps(a, b); }
-  static M ge(F a, F b) { return _mm_cmpge_ps(a, b); }
-  static M ne(F a, F b) { return _mm_cmpneq_ps(a, b); }
-  static M land(M a, M b) { return _mm_and_ps(a, b); }
-  static M lor(M a, M b) { return _mm_or_ps(a, b); }
-  static bool any(M m) { return _mm_movemask_ps(m) != 0; }
-  static int count(M m) { return __builtin_popcount(static_cast<unsigned>(_mm_movemask_ps(m))); }
-  static F keep(M m, F a) { return _mm_and_ps(m, a); }
-  static F select(M m, F a, F b) { return _mm_blendv_ps(b, a, m); }
-  static I ikeep(M m, I a) { return _mm_and_si128(_mm_castps_si128(m), a); }
   // One 64-bit load per lane (MOVLPS / MOVHPS), then the even and the odd floats.
   static void gather2(const float* base, I idx, F& lo, F& hi) {
     const auto at = [base](int i) { return reinterpret_cast<const __m64*>(base + i); };
