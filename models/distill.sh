@@ -11,6 +11,9 @@
 #                          int8 student.efm, the figures in evaluation.json
 #   EF_TRAIN_DATA=<dir>    the synthetic rooms (train.sh's, rendered here if absent; default /tmp/edgefusion-data)
 #   EF_DISTILL_EPOCHS=<n>  epochs (default 12)
+#   EF_DISTILL_DEVICE=<d>  cpu (default: one thread, deterministic, the figures in docs/results.md),
+#                          cuda or auto (a GPU where PyTorch sees one; models/distill_sweep.sh trains
+#                          several students at once on a GPU machine without the binary)
 # The student is not shipped: the 7-Scenes frames it learns from are for research use only
 # (../shared/data/7scenes-redkitchen/README.txt).
 set -euo pipefail
@@ -28,7 +31,8 @@ export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 cd models
 /usr/bin/python3 -m edgefusion_models.distill --edgefusion "$bin" --teacher deeplabv3-mnv2-nyu13.efm \
   --source "$source" --holdout-from "$holdout" --work-dir "$work" --out "$work/student.pt" \
-  --synthetic-dir "${EF_TRAIN_DATA:-/tmp/edgefusion-data}" --epochs "${EF_DISTILL_EPOCHS:-12}"
+  --synthetic-dir "${EF_TRAIN_DATA:-/tmp/edgefusion-data}" --epochs "${EF_DISTILL_EPOCHS:-12}" \
+  --device "${EF_DISTILL_DEVICE:-cpu}"
 /usr/bin/python3 -m edgefusion_models.export --checkpoint "$work/student.pt" \
   --calibration-npz "$work/student_calibration.npz" --out "$work/student.efm" --golden-dir "$work/golden"
 /usr/bin/python3 -m edgefusion_models.distill --evaluate --edgefusion "$bin" --teacher deeplabv3-mnv2-nyu13.efm \

@@ -254,7 +254,7 @@ def train(args):
     torch.manual_seed(args.seed)
     torch.set_num_threads(args.threads)
     rng = np.random.default_rng(args.seed)
-    device = torch.device(args.device)
+    device = torch.device(("cuda" if torch.cuda.is_available() else "cpu") if args.device == "auto" else args.device)
     if args.from_pack:
         rgb, depth, teacher, synth = read_pack(args.from_pack)
     else:
@@ -411,7 +411,8 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--width", type=float, default=1.0,
                     help="training with --init '': the student's channel multiplier (net.EdgeSegNet; 1 = shipped)")
-    ap.add_argument("--device", default="cpu", help="training: torch device ('cuda' on a GPU machine)")
+    ap.add_argument("--device", default="cpu",
+                    help="training: torch device ('cuda' on a GPU machine; 'auto': cuda where torch sees one)")
     ap.add_argument("--max-zoom", type=float, default=1.0,
                     help="training: scale augmentation, frames magnified up to this factor (1 = off)")
     ap.add_argument("--time-budget-s", type=float,
