@@ -1,8 +1,9 @@
 // Internal to the AVX2 variants of the kernels written over a vector-ops type (bilateral_row,
-// fusion_gates, track_rows, pyramid_row, normal_row, gradient_fill_row): the float and int32
-// operations they share, 8 lanes in ymm registers, lane masks as all-ones float lanes (separate multiply and add: contraction off, although the files are
-// built with -mfma). Each family's type derives from it and adds its own loads. Internal linkage (an
-// anonymous namespace): the rule for ISA files in kernels/variants.h.
+// fusion_gates, track_rows, crf_rows, pyramid_row, normal_row, gradient_fill_row): the float and
+// int32 operations they share, 8 lanes in ymm registers, lane masks as all-ones float lanes
+// (separate multiply and add: contraction off, although the files are built with -mfma). Each
+// family's type derives from it (or is it) and adds its own loads. Internal linkage (an anonymous
+// namespace): the rule for ISA files in kernels/variants.h.
 #pragma once
 
 #include <immintrin.h>
@@ -21,6 +22,7 @@ struct F32Avx2 {
   static F zero() { return _mm256_setzero_ps(); }
   static F load(const float* p) { return _mm256_loadu_ps(p); }
   static void store(float* p, F x) { _mm256_storeu_ps(p, x); }
+  static void prefetch(const float* p) { _mm_prefetch(reinterpret_cast<const char*>(p), _MM_HINT_T0); }  // read hint
   static F add(F a, F b) { return _mm256_add_ps(a, b); }
   static F sub(F a, F b) { return _mm256_sub_ps(a, b); }
   static F mul(F a, F b) { return _mm256_mul_ps(a, b); }

@@ -1,7 +1,8 @@
 // Internal to the AVX-512 variants of the kernels written over a vector-ops type (bilateral_row,
-// fusion_gates, track_rows, pyramid_row, normal_row, gradient_fill_row): the float and int32
-// operations they share, 16 lanes in zmm registers, masks in k registers (AVX-512 F). Each family's type derives from it and adds its own loads. Internal
-// linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
+// fusion_gates, track_rows, crf_rows, pyramid_row, normal_row, gradient_fill_row): the float and
+// int32 operations they share, 16 lanes in zmm registers, masks in k registers (AVX-512 F). Each
+// family's type derives from it (or is it) and adds its own loads. Internal linkage (an anonymous
+// namespace): the rule for ISA files in kernels/variants.h.
 #pragma once
 
 #include <immintrin.h>
@@ -24,6 +25,7 @@ struct F32Avx512 {
   static F zero() { return _mm512_setzero_ps(); }
   static F load(const float* p) { return _mm512_loadu_ps(p); }
   static void store(float* p, F x) { _mm512_storeu_ps(p, x); }
+  static void prefetch(const float* p) { _mm_prefetch(reinterpret_cast<const char*>(p), _MM_HINT_T0); }  // read hint
   static F add(F a, F b) { return _mm512_add_ps(a, b); }
   static F sub(F a, F b) { return _mm512_sub_ps(a, b); }
   static F mul(F a, F b) { return _mm512_mul_ps(a, b); }

@@ -1,8 +1,9 @@
 // Internal to the NEON variants of the kernels written over a vector-ops type (bilateral_row,
-// fusion_gates, track_rows, pyramid_row, normal_row, gradient_fill_row): the float and int32
-// operations they share, 4 lanes in q registers, lane masks as all-ones uint32 lanes. Separate FMUL / FADD (the kernel files turn contraction off); FDIV and
-// FSQRT are the IEEE operations; selects by BSL. Each family's type derives from it and adds its own
-// loads. Internal linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
+// fusion_gates, track_rows, crf_rows, pyramid_row, normal_row, gradient_fill_row): the float and
+// int32 operations they share, 4 lanes in q registers, lane masks as all-ones uint32 lanes.
+// Separate FMUL / FADD (the kernel files turn contraction off); FDIV and FSQRT are the IEEE
+// operations; selects by BSL. Each family's type derives from it (or is it) and adds its own loads.
+// Internal linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
 #pragma once
 
 #include <arm_neon.h>
@@ -19,6 +20,7 @@ struct F32Neon {
   static F zero() { return vdupq_n_f32(0.0f); }
   static F load(const float* p) { return vld1q_f32(p); }
   static void store(float* p, F x) { vst1q_f32(p, x); }
+  static void prefetch(const float* p) { __builtin_prefetch(p); }  // read hint
   static F add(F a, F b) { return vaddq_f32(a, b); }
   static F sub(F a, F b) { return vsubq_f32(a, b); }
   static F mul(F a, F b) { return vmulq_f32(a, b); }
@@ -41,7 +43,8 @@ struct F32Neon {
   static M lnot(M a) { return vmvnq_u32(a); }
   static bool any(M m) { return vmaxvq_u32(m) != 0; }
   static int count(M m) { return static_cast<int>(vaddvq_u32(vshrq_n_u32(m, 31))); }
-  static F keep(M m, F a) { return vreinterpretq_f32_u32(vandq_u32(m, vreinterpretq_u32_f32(a))); }  // a where m, else 0
+  // a where m, else 0
+  static F keep(M m, F a) { return vreinterpretq_f32_u32(vandq_u32(m, vreinterpretq_u32_f32(a))); }
   static F select(M m, F a, F b) { return vbslq_f32(m, a, b); }  // a where m, else b
   static I iset1(int x) { return vdupq_n_s32(x); }
   static I iadd(I a, I b) { return vaddq_s32(a, b); }

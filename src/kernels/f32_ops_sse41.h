@@ -1,7 +1,8 @@
 // Internal to the SSE4.1 variants of the kernels written over a vector-ops type (bilateral_row,
-// fusion_gates, track_rows, pyramid_row, normal_row, gradient_fill_row): the float and int32
-// operations they share, 4 lanes in xmm registers, lane masks as all-ones float lanes. Each family's type derives from it and adds its own loads. Internal
-// linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
+// fusion_gates, track_rows, crf_rows, pyramid_row, normal_row, gradient_fill_row): the float and
+// int32 operations they share, 4 lanes in xmm registers, lane masks as all-ones float lanes. Each
+// family's type derives from it (or is it) and adds its own loads. Internal linkage (an anonymous
+// namespace): the rule for ISA files in kernels/variants.h.
 #pragma once
 
 #include <smmintrin.h>
@@ -20,6 +21,7 @@ struct F32Sse41 {
   static F zero() { return _mm_setzero_ps(); }
   static F load(const float* p) { return _mm_loadu_ps(p); }
   static void store(float* p, F x) { _mm_storeu_ps(p, x); }
+  static void prefetch(const float* p) { _mm_prefetch(reinterpret_cast<const char*>(p), _MM_HINT_T0); }  // read hint
   static F add(F a, F b) { return _mm_add_ps(a, b); }
   static F sub(F a, F b) { return _mm_sub_ps(a, b); }
   static F mul(F a, F b) { return _mm_mul_ps(a, b); }
