@@ -1,9 +1,10 @@
 // Internal to the AVX2 variants of the kernels written over a vector-ops type (bilateral_row,
-// fusion_gates, track_rows, crf_rows, pyramid_row, normal_row, gradient_fill_row): the float and
-// int32 operations they share, 8 lanes in ymm registers, lane masks as all-ones float lanes
-// (separate multiply and add: contraction off, although the files are built with -mfma). Each
-// family's type derives from it (or is it) and adds its own loads. Internal linkage (an anonymous
-// namespace): the rule for ISA files in kernels/variants.h.
+// fusion_gates, track_rows, crf_rows, reduce_normal_equations (AVX2 and AVX-512 both take the AVX2
+// type there), pyramid_row, normal_row, gradient_fill_row): the float and int32 operations they
+// share, 8 lanes in ymm registers, lane masks as all-ones float lanes (separate multiply and add:
+// contraction off, although the files are built with -mfma). Each family's type derives from it (or
+// is it) and adds its own loads. Internal linkage (an anonymous namespace): the rule for ISA files
+// in kernels/variants.h.
 #pragma once
 
 #include <immintrin.h>

@@ -1,9 +1,10 @@
 // Internal to the NEON variants of the kernels written over a vector-ops type (bilateral_row,
-// fusion_gates, track_rows, crf_rows, pyramid_row, normal_row, gradient_fill_row): the float and
-// int32 operations they share, 4 lanes in q registers, lane masks as all-ones uint32 lanes.
-// Separate FMUL / FADD (the kernel files turn contraction off); FDIV and FSQRT are the IEEE
-// operations; selects by BSL. Each family's type derives from it (or is it) and adds its own loads.
-// Internal linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
+// fusion_gates, track_rows, crf_rows, reduce_normal_equations, pyramid_row, normal_row,
+// gradient_fill_row): the float and int32 operations they share, 4 lanes in q registers, lane masks
+// as all-ones uint32 lanes. Separate FMUL / FADD (the kernel files turn contraction off); FDIV and
+// FSQRT are the IEEE operations; selects by BSL. Each family's type derives from it (or is it) and
+// adds its own loads. Internal linkage (an anonymous namespace): the rule for ISA files in
+// kernels/variants.h.
 #pragma once
 
 #include <arm_neon.h>

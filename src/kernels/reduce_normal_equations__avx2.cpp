@@ -3,19 +3,14 @@
 // (the AVX2 level) but with contraction off, so no FMA is formed and sums match the reference.
 #include <immintrin.h>
 
+#include "kernels/f32_ops_avx2.h"
 #include "kernels/reduce_normal_equations_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Avx2 {
-  using Reg = __m256;
-  static constexpr int kWidth = 8;
-  static Reg zero() { return _mm256_setzero_ps(); }
-  static Reg load(const float* p) { return _mm256_loadu_ps(p); }
-  static Reg mul(Reg a, Reg b) { return _mm256_mul_ps(a, b); }
-  static Reg add(Reg a, Reg b) { return _mm256_add_ps(a, b); }
-  static void add_to_totals(double* t, Reg v) {
+struct Avx2 : F32Avx2 {
+  static void add_to_totals(double* t, F v) {
     _mm256_storeu_pd(t, _mm256_add_pd(_mm256_loadu_pd(t), _mm256_cvtps_pd(_mm256_castps256_ps128(v))));
     _mm256_storeu_pd(t + 4, _mm256_add_pd(_mm256_loadu_pd(t + 4), _mm256_cvtps_pd(_mm256_extractf128_ps(v, 1))));
   }

@@ -1,22 +1,18 @@
 // reduce_normal_equations at the AVX-512 level: still 8-lane ymm registers (a zmm would put two rows
 // of one lane in different halves and change the summation order), but AVX-512VL gives 32 of them,
 // so the 28 outputs take two passes of 14 accumulators instead of four: each input is loaded about
-// half as often as in the AVX2 variant. Separate multiply and add (contraction off).
+// half as often as in the AVX2 variant. Its vector ops are the AVX2 ones (kernels/f32_ops_avx2.h);
+// only the widening into the double totals uses AVX-512. Separate multiply and add (contraction off).
 #include <immintrin.h>
 
+#include "kernels/f32_ops_avx2.h"
 #include "kernels/reduce_normal_equations_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Avx512Ymm {
-  using Reg = __m256;
-  static constexpr int kWidth = 8;
-  static Reg zero() { return _mm256_setzero_ps(); }
-  static Reg load(const float* p) { return _mm256_loadu_ps(p); }
-  static Reg mul(Reg a, Reg b) { return _mm256_mul_ps(a, b); }
-  static Reg add(Reg a, Reg b) { return _mm256_add_ps(a, b); }
-  static void add_to_totals(double* t, Reg v) {
+struct Avx512Ymm : F32Avx2 {
+  static void add_to_totals(double* t, F v) {
     // 8 floats -> 8 doubles, exact. The maskz form with an all-ones mask avoids GCC 12's false
     // -Wmaybe-uninitialized in the plain intrinsic (it merges into _mm512_undefined_pd()).
     const __m512d d = _mm512_maskz_cvtps_pd(static_cast<__mmask8>(0xFF), v);

@@ -4,19 +4,14 @@
 // on, which would change the rounding (this file turns it off).
 #include <arm_neon.h>
 
+#include "kernels/f32_ops_neon.h"
 #include "kernels/reduce_normal_equations_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Neon {
-  using Reg = float32x4_t;
-  static constexpr int kWidth = 4;
-  static Reg zero() { return vdupq_n_f32(0.0f); }
-  static Reg load(const float* p) { return vld1q_f32(p); }
-  static Reg mul(Reg a, Reg b) { return vmulq_f32(a, b); }
-  static Reg add(Reg a, Reg b) { return vaddq_f32(a, b); }
-  static void add_to_totals(double* t, Reg v) {
+struct Neon : F32Neon {
+  static void add_to_totals(double* t, F v) {
     vst1q_f64(t, vaddq_f64(vld1q_f64(t), vcvt_f64_f32(vget_low_f32(v))));
     vst1q_f64(t + 2, vaddq_f64(vld1q_f64(t + 2), vcvt_high_f64_f32(v)));
   }

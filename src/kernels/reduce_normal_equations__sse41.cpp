@@ -3,19 +3,14 @@
 // registers. Products and sums are separate MULPS / ADDPS (contraction off), as the reference.
 #include <smmintrin.h>
 
+#include "kernels/f32_ops_sse41.h"
 #include "kernels/reduce_normal_equations_simd.h"
 
 namespace ef::kernels {
 
 namespace {
-struct Sse41 {
-  using Reg = __m128;
-  static constexpr int kWidth = 4;
-  static Reg zero() { return _mm_setzero_ps(); }
-  static Reg load(const float* p) { return _mm_loadu_ps(p); }
-  static Reg mul(Reg a, Reg b) { return _mm_mul_ps(a, b); }
-  static Reg add(Reg a, Reg b) { return _mm_add_ps(a, b); }
-  static void add_to_totals(double* t, Reg v) {
+struct Sse41 : F32Sse41 {
+  static void add_to_totals(double* t, F v) {
     _mm_storeu_pd(t, _mm_add_pd(_mm_loadu_pd(t), _mm_cvtps_pd(v)));
     _mm_storeu_pd(t + 2, _mm_add_pd(_mm_loadu_pd(t + 2), _mm_cvtps_pd(_mm_movehl_ps(v, v))));
   }

@@ -4,8 +4,9 @@
 // flags (see the rule in kernels/variants.h); only baseline functions (ne_*) are called across.
 //
 // A vector-ops type V provides:
-//   using Reg;  static constexpr int kWidth (4 or 8 lanes);  zero(); load(const float*) (unaligned);
-//   mul(a, b); add(a, b);  add_to_totals(double* t, Reg v): t[j] += double(v[j]) for j < kWidth.
+//   using F;  static constexpr int kWidth (4 or 8 lanes);  zero(); load(const float*) (unaligned);
+//   mul(a, b); add(a, b) (these from the ISA's kernels/f32_ops_<isa>.h type);  add_to_totals(double* t,
+//   F v): t[j] += double(v[j]) for j < kWidth (each ISA file's own).
 // A register holds lanes [lane0, lane0 + kWidth) of the 8 lanes of the specification, so 4-wide
 // ISAs run every pass twice (lane0 = 0 and 4) and 8-wide ones once; either way each lane sees exactly
 // the additions of the scalar reference, in the same order.
@@ -34,25 +35,25 @@ constexpr int ne_row_len(int p) { return p < 0 ? 0 : 7 - p; }
 // (16 on SSE/AVX2, 32 on AVX-512/NEON); how outputs are split into passes does not change any sum.
 template <class V, int P0, int P1 = -1, int P2 = -1, int P3 = -1>
 struct NePass {
-  using Reg = typename V::Reg;
+  using F = typename V::F;
   static constexpr int kRows[4] = {P0, P1, P2, P3};
   static constexpr int kFirst[4] = {0, ne_row_len(P0), ne_row_len(P0) + ne_row_len(P1),
                                     ne_row_len(P0) + ne_row_len(P1) + ne_row_len(P2)};
   static constexpr int kCount = kFirst[3] + ne_row_len(P3);
 
   // One group: g points at component 0 of the group's first lane; component k is at g[k * stride].
-  static inline void group(const float* g, std::size_t stride, Reg* acc) {
-    const Reg w = V::load(g + 7 * stride);
-    Reg wa[4];
+  static inline void group(const float* g, std::size_t stride, F* acc) {
+    const F w = V::load(g + 7 * stride);
+    F wa[4];
 #pragma GCC unroll 4
     for (int j = 0; j < 4; ++j) wa[j] = kRows[j] >= 0 ? V::mul(w, V::load(g + kRows[j] * stride)) : w;
 #pragma GCC unroll 7
     for (int q = 0; q < 7; ++q) {
-      const Reg x = V::load(g + q * stride);
+      const F x = V::load(g + q * stride);
 #pragma GCC unroll 4
       for (int j = 0; j < 4; ++j) {
         if (kRows[j] >= 0 && kRows[j] <= q) {
-          Reg& a = acc[kFirst[j] + q - kRows[j]];
+          F& a = acc[kFirst[j] + q - kRows[j]];
           a = V::add(a, V::mul(wa[j], x));  // (w * a_p) * a_q, then the add: as the reference
         }
       }
@@ -63,7 +64,7 @@ struct NePass {
   // tile (8-row stride) if any; the block's float sums are then added to the double totals.
   static void run(const float* rows, std::size_t stride, std::size_t begin, std::size_t end_full, const float* tile,
                   int lane0, double* totals) {
-    Reg acc[kCount];
+    F acc[kCount];
 #pragma GCC unroll 16
     for (int c = 0; c < kCount; ++c) acc[c] = V::zero();
     for (std::size_t i = begin; i < end_full; i += kNeLanes) group(rows + i + lane0, stride, acc);
