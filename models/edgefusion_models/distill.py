@@ -45,6 +45,7 @@ import sys
 import tempfile
 import time
 import warnings
+import zipfile
 
 import numpy as np
 
@@ -154,6 +155,10 @@ def _depth_from_planes(planes):
     return (planes[0].astype(np.float32) + 256 * planes[1].astype(np.float32)) / 100
 
 
+PACK_KEYS = ("rgb", "rgb_offsets", "depth_cm", "teacher", "synth_rgb", "synth_rgb_offsets", "synth_depth_cm",
+             "synth_labels")
+
+
 def write_pack(path, rgb, depth, teacher, synth):
     """One compressed file of what training reads: colour exact (lossless WebP), depth in whole
     centimetres (the int8 input's depth step is 3/127 m = 2.4 cm, so the student cannot see finer),
@@ -170,7 +175,13 @@ def write_pack(path, rgb, depth, teacher, synth):
 
 def read_pack(path):
     """(rgb, depth in metres, teacher probabilities N x h x w x C, (synthetic rgb, depth, labels))."""
-    z = np.load(path)
+    try:
+        z = np.load(path)
+        missing = [k for k in PACK_KEYS if k not in z.files]
+    except (OSError, ValueError, zipfile.BadZipFile) as e:
+        raise ValueError(f"{path}: not a readable data pack ({e})") from e
+    if missing:
+        raise ValueError(f"{path}: not a data pack of distill.py --pack (no {', '.join(missing)})")
     teacher = z["teacher"].transpose(1, 2, 3, 0).astype(np.float32)
     teacher /= np.maximum(teacher.sum(-1, keepdims=True), 1.0)
     return (_decode_images(z["rgb"], z["rgb_offsets"]), _depth_from_planes(z["depth_cm"]), teacher,

@@ -106,6 +106,20 @@ class PackAndAugmentation(unittest.TestCase):
         np.testing.assert_array_equal(s_lab, synth[2][::stride])
         self.assertLessEqual(np.abs(s_depth - synth[1][::stride]).max(), 0.005 + 1e-6)
 
+    def test_a_file_that_is_not_a_pack_is_named_in_the_error(self):
+        import os
+        import tempfile
+        with tempfile.TemporaryDirectory() as tmp:
+            other = os.path.join(tmp, "other.npz")
+            np.savez(other, rgb=np.zeros(3))
+            with self.assertRaisesRegex(ValueError, "other.npz: not a data pack .*teacher"):
+                distill.read_pack(other)
+            cut = os.path.join(tmp, "cut.npz")
+            with open(cut, "wb") as f:
+                f.write(b"PK\x03\x04 truncated")
+            with self.assertRaisesRegex(ValueError, "cut.npz: not a readable data pack"):
+                distill.read_pack(cut)
+
     def test_zoom_moves_the_frame_and_its_targets_together(self):
         rng = np.random.default_rng(7)
         n, h, w = 16, 24, 32
