@@ -29,9 +29,11 @@ def load_checkpoint(path):
     state = ckpt["model"] if isinstance(ckpt, dict) and "model" in ckpt else ckpt
     if "classifier.weight" not in state:
         raise ValueError(f"{path}: not an EdgeSegNet checkpoint (no classifier.weight in the state dict)")
-    # The width multiplier follows from the stem's output channels (24 at width 1, net.channels).
-    model = net.EdgeSegNet(num_classes=state["classifier.weight"].shape[0],
-                           width=state["stem.0.weight"].shape[0] / 24.0)
+    # The layer widths (net.EdgeSegNet's widths; 24, 32, 64, 128 for the shipped network) from the
+    # stem's and the first pointwise convolution of enc1, enc2 and enc3.
+    widths = tuple(int(state[k].shape[0]) for k in ("stem.0.weight", "enc1.1.0.weight", "enc2.0.1.0.weight",
+                                                     "enc3.0.1.0.weight"))
+    model = net.EdgeSegNet(num_classes=state["classifier.weight"].shape[0], widths=widths)
     model.load_state_dict(state)
     return model.eval()
 

@@ -59,12 +59,13 @@ def channels(c, width):
 class EdgeSegNet(nn.Module):
     """width: channel multiplier (1.0 = the shipped network, 59 MMAC; 2.0 is about 4x the
     multiply-adds). Only the layer widths change: the wiring and the layer names stay, so a
-    checkpoint's width follows from its stem's weight (export.load_checkpoint)."""
+    checkpoint's widths follow from its weights (export.load_checkpoint passes them as `widths`,
+    the four channel counts that stand for the shipped network's 24, 32, 64 and 128)."""
 
-    def __init__(self, num_classes=NUM_CLASSES, width=1.0):
+    def __init__(self, num_classes=NUM_CLASSES, width=1.0, widths=None):
         super().__init__()
-        c24, c32, c64, c128 = (channels(c, width) for c in (24, 32, 64, 128))
-        self.width = width
+        c24, c32, c64, c128 = widths if widths is not None else (channels(c, width) for c in (24, 32, 64, 128))
+        self.width = c24 / 24.0 if widths is not None else width
         self.stem = ConvBNReLU6(4, c24, 3, stride=2)             # 60x80x24
         self.enc1 = DwPw(c24, c32)                                # 60x80x32  (skip 1)
         self.enc2 = nn.Sequential(DwPw(c32, c64, stride=2),       # 30x40x64

@@ -151,16 +151,17 @@ class StudentWidth(unittest.TestCase):
         import os
         import tempfile
         torch.manual_seed(9)
-        model = net.EdgeSegNet(width=2.0).eval()
-        self.assertEqual(model.classifier.in_channels, 64)
-        with tempfile.TemporaryDirectory() as tmp:
-            path = os.path.join(tmp, "wide.pt")
-            torch.save({"model": model.state_dict()}, path)
-            back = export.load_checkpoint(path)
-        self.assertEqual(back.width, 2.0)
-        x = torch.randn(1, 4, net.INPUT_HEIGHT, net.INPUT_WIDTH)
-        with torch.no_grad():
-            torch.testing.assert_close(back(x), model(x))
+        for width, last in ((2.0, 64), (1.5, 48)):  # 1.5: 32, 48, 96, 192 channels, not a multiple of the stem's
+            model = net.EdgeSegNet(width=width).eval()
+            self.assertEqual(model.classifier.in_channels, last)
+            with tempfile.TemporaryDirectory() as tmp:
+                path = os.path.join(tmp, "wide.pt")
+                torch.save({"model": model.state_dict()}, path)
+                back = export.load_checkpoint(path)
+            self.assertEqual(net.count_macs(back), net.count_macs(model))
+            x = torch.randn(1, 4, net.INPUT_HEIGHT, net.INPUT_WIDTH)
+            with torch.no_grad():
+                torch.testing.assert_close(back(x), model(x))
 
     def test_width_one_is_the_shipped_network(self):
         self.assertEqual([net.channels(c, 1.0) for c in (24, 32, 64, 128)], [24, 32, 64, 128])
