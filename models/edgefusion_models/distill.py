@@ -140,8 +140,13 @@ def _encode_images(rgb):
 
 def _decode_images(blob, offsets):
     import cv2
-    return np.stack([cv2.imdecode(blob[offsets[i]:offsets[i + 1]], cv2.IMREAD_COLOR)[..., ::-1]
-                     for i in range(len(offsets) - 1)])
+    out = []
+    for i in range(len(offsets) - 1):
+        image = cv2.imdecode(blob[offsets[i]:offsets[i + 1]], cv2.IMREAD_COLOR)
+        if image is None:
+            raise ValueError(f"image {i} of the pack does not decode")
+        out.append(image[..., ::-1])
+    return np.stack(out)
 
 
 def _depth_planes(depth):
@@ -182,11 +187,15 @@ def read_pack(path):
         raise ValueError(f"{path}: not a readable data pack ({e})") from e
     if missing:
         raise ValueError(f"{path}: not a data pack of distill.py --pack (no {', '.join(missing)})")
+    try:
+        rgb = _decode_images(z["rgb"], z["rgb_offsets"])
+        s_rgb = _decode_images(z["synth_rgb"], z["synth_rgb_offsets"])
+    except (ValueError, IndexError, TypeError) as e:
+        raise ValueError(f"{path}: a damaged data pack ({e})") from e
     teacher = z["teacher"].transpose(1, 2, 3, 0).astype(np.float32)
     teacher /= np.maximum(teacher.sum(-1, keepdims=True), 1.0)
-    return (_decode_images(z["rgb"], z["rgb_offsets"]), _depth_from_planes(z["depth_cm"]), teacher,
-            (_decode_images(z["synth_rgb"], z["synth_rgb_offsets"]), _depth_from_planes(z["synth_depth_cm"]),
-             z["synth_labels"]))
+    return (rgb, _depth_from_planes(z["depth_cm"]), teacher,
+            (s_rgb, _depth_from_planes(z["synth_depth_cm"]), z["synth_labels"]))
 
 
 def zoom(x, target, rng, max_zoom, nearest_channels=(), nearest_target=False):

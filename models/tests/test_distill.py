@@ -114,6 +114,13 @@ class PackAndAugmentation(unittest.TestCase):
             np.savez(other, rgb=np.zeros(3))
             with self.assertRaisesRegex(ValueError, "other.npz: not a data pack .*teacher"):
                 distill.read_pack(other)
+            damaged = os.path.join(tmp, "damaged.npz")
+            blob = np.frombuffer(b"RIFF\x10\x00\x00\x00WEBPnot an image", np.uint8)
+            np.savez(damaged, rgb=blob, rgb_offsets=np.array([0, len(blob)]), depth_cm=np.zeros((2, 1, 2, 2), np.uint8),
+                     teacher=np.zeros((14, 1, 2, 2), np.uint8), synth_rgb=blob, synth_rgb_offsets=np.array([0, len(blob)]),
+                     synth_depth_cm=np.zeros((2, 1, 2, 2), np.uint8), synth_labels=np.zeros((1, 2, 2), np.uint8))
+            with self.assertRaisesRegex(ValueError, "damaged.npz: a damaged data pack .*image 0"):
+                distill.read_pack(damaged)
             cut = os.path.join(tmp, "cut.npz")
             with open(cut, "wb") as f:
                 f.write(b"PK\x03\x04 truncated")
