@@ -367,8 +367,10 @@ def train(args):
     cal = np.sort(rng.choice(train_idx, min(64, len(train_idx)), replace=False))
     cal_s = np.sort(rng.choice(synth[0].shape[0], min(64, synth[0].shape[0]), replace=False))
     np.savez_compressed(os.path.splitext(args.out)[0] + "_calibration.npz",
-             rgb=np.concatenate([rgb[cal], synth[0][cal_s]]), depth=np.concatenate([depth[cal], synth[1][cal_s]]),
-             labels=np.concatenate([np.zeros((len(cal), INPUT_HEIGHT, INPUT_WIDTH), np.uint8), synth[2][cal_s]]))
+                        rgb=np.concatenate([rgb[cal], synth[0][cal_s]]),
+                        depth=np.concatenate([depth[cal], synth[1][cal_s]]),
+                        labels=np.concatenate([np.zeros((len(cal), INPUT_HEIGHT, INPUT_WIDTH), np.uint8),
+                                               synth[2][cal_s]]))
     run_s = time.time() - t_start
     print(f"done: held-out agreement {100 * start:.2f}% -> {100 * history[-1]['held_out_agreement']:.2f}% "
           f"(float); {run_s / 60:.1f} min with {args.threads} threads", flush=True)
@@ -455,6 +457,8 @@ def main(argv=None):
             ap.error("--edgefusion, --teacher and --source are needed unless --from-pack")
         if args.init and args.width != 1.0:
             ap.error("--width applies to a student from random weights (--init '')")
+        if not args.width > 0 or not args.max_zoom >= 1.0:
+            ap.error("--width must be > 0 and --max-zoom >= 1")
         train(args)
     return 0
 
