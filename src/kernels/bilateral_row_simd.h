@@ -13,11 +13,7 @@
 
 #include "kernels/bilateral_row_variants.h"
 
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+#include "kernels/fp_contract_off.h"
 
 namespace ef::kernels {
 namespace {

@@ -1,11 +1,7 @@
 // gradient_fill_row, scalar reference (the specification; see kernels/gradient_fill_row.h).
 #include "kernels/gradient_fill_row_variants.h"
 
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+#include "kernels/fp_contract_off.h"
 
 namespace ef::kernels {
 

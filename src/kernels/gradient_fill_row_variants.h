@@ -1,7 +1,7 @@
 // Every variant of gradient_fill_row (internal: the dispatcher, tests and benchmark use it).
 // Contract of each variant: that of ef::kernels::gradient_fill_row (kernels/gradient_fill_row.h).
 // Files of this family are compiled with floating-point contraction off (src/CMakeLists.txt for
-// ef_kernels, and a pragma in each file), so products and sums round separately everywhere.
+// ef_kernels, and kernels/fp_contract_off.h in each file), so products and sums round separately everywhere.
 #pragma once
 
 #include "kernels/gradient_fill_row.h"

@@ -7,11 +7,7 @@
 //   Finally A[o] = ((T0 + T1) + (T2 + T3)) + ((T4 + T5) + (T6 + T7)).
 #include "kernels/reduce_normal_equations_variants.h"
 
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+#include "kernels/fp_contract_off.h"
 
 namespace ef::kernels {
 

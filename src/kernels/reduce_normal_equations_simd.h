@@ -19,11 +19,7 @@
 
 // No contraction into FMA from here to the end of the including ISA file: the templates below and the
 // includer's vector-ops type are compiled with separate multiply and add, as the reference.
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+#include "kernels/fp_contract_off.h"
 
 namespace ef::kernels {
 namespace {

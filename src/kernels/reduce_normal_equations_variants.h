@@ -2,7 +2,7 @@
 // and the pieces of the summation order that all variants share.
 // Contract of each variant: that of ef::kernels::reduce_normal_equations (kernels/normal_equations.h).
 //
-// Files of this family are compiled with floating-point contraction off (a pragma in each file,
+// Files of this family are compiled with floating-point contraction off (kernels/fp_contract_off.h,
 // because the compiler's C++ default contracts a*b+c into FMA when the ISA has it: AArch64 always,
 // x86 with -mfma), so that products and sums round separately everywhere.
 #pragma once

@@ -1,7 +1,7 @@
 // Every variant of splat_disc (internal: the dispatcher, tests and benchmark use it).
 // Contract of each variant: that of ef::kernels::splat_disc (kernels/splat_disc.h).
 // Files of this family are compiled with floating-point contraction off (src/CMakeLists.txt for
-// ef_kernels, and a pragma in each file), so products and sums round separately everywhere.
+// ef_kernels, and kernels/fp_contract_off.h in each file), so products and sums round separately everywhere.
 #pragma once
 
 #include <cstdint>

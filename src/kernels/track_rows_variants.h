@@ -1,8 +1,8 @@
 // Every variant of track_rows (internal: the dispatcher, tests and benchmarks use it).
 // Contract of each variant: that of ef::kernels::track_rows (kernels/track_rows.h), bit for bit.
 //
-// Files of this family are compiled with floating-point contraction off (a pragma in each file, as
-// well as -ffp-contract=off on the library): a fused multiply-add would round differently from the
+// Files of this family are compiled with floating-point contraction off (kernels/fp_contract_off.h
+// in each file, as well as -ffp-contract=off on the library): a fused multiply-add would round differently from the
 // reference's separate multiply and add.
 #pragma once
 

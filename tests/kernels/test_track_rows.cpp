@@ -20,11 +20,7 @@
 
 // The inputs of the cross-architecture test must not depend on the compiler fusing a * b + c (GCC
 // does by default on AArch64).
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+#include "kernels/fp_contract_off.h"
 
 namespace ef::kernels {
 namespace {
