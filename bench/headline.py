@@ -23,6 +23,10 @@ The runs, one after the other (never together, so that they do not share the cor
   crf         bench_crf --checkpoint on the map of the first two-thread pipeline run (real, labels
               fused): 10 mean-field iterations over its confident surfels, one thread, median of 3;
               and `edgefusion plan --crf-final` for the 7-Scenes source at the default pool and budget.
+  drift       bench/reference_consistency.py --far 300 on the SLAM run's trajectory and the reference
+              poses: frame pairs 300 or more frames apart that view the same surface, registered
+              directly depth to depth (no map, no trajectory beyond the start); each trajectory's
+              relative pose against that registration, median translation and rotation.
   growth      bench/slam_growth.sh: the four SLAM stages per 1,000 frames of a 10,000-frame synthetic
               robot path, the last window's median sum against the second's, and the surfels.
 """
@@ -99,6 +103,23 @@ def slam(args, work):
         "lost": ours["counters"].get("lost_frames", 0),
         "surfels": ours.get("surfels", 0),
     }
+
+
+def drift(args, work):
+    """bench/reference_consistency.py --far 300 on the SLAM run: each trajectory's relative poses between
+    frames far apart against direct registration of their depth images."""
+    out = os.path.join(work, "slam")
+    table = run(["/usr/bin/python3", os.path.join(REPO, "bench", "reference_consistency.py"),
+                 os.path.join(out, "reference", "groundtruth.txt"), os.path.join(out, "ours", "trajectory.txt"),
+                 "--far", "300", "--data", args.data])
+    head = re.search(r"(\d+) registered to one answer from every start \(gaps (\d+)-(\d+) frames\)", table)
+    rows = dict((m[0], (float(m[1]), float(m[2]))) for m in
+                re.findall(r"^\| (\w+) \| ([\d.]+) \| [\d.]+ \| ([\d.]+) \|", table, re.M))
+    if not head or "ours" not in rows or "reference" not in rows:
+        sys.exit("headline: bench/reference_consistency.py --far printed no table:\n" + table)
+    return {"pairs": int(head.group(1)), "gap_min": int(head.group(2)), "gap_max": int(head.group(3)),
+            "ours_mm": rows["ours"][0], "ours_deg": rows["ours"][1],
+            "ref_mm": rows["reference"][0], "ref_deg": rows["reference"][1]}
 
 
 def cnn(args, model_file):
@@ -209,6 +230,7 @@ def main():
                             text=True).stdout.strip() or "unknown"
     with tempfile.TemporaryDirectory(prefix="edgefusion-headline-") as work:
         s = slam(args, work)
+        d = drift(args, work)
         c = cnn(args, "edgefusion-seg.efm")
         dl = cnn(args, "deeplabv3-mnv2-nyu13.efm")
         a = agreement(args)
@@ -227,6 +249,10 @@ def main():
         ("Open3D time / SLAM time", f"{s['ratio']:.1f}x", kitchen, "same run"),
         ("Trajectory error (ATE RMSE): EdgeFusion / Open3D", f"{s['ours_ate_cm']:.2f} / {s['o3d_ate_cm']:.2f} cm",
          kitchen, "same run, `edgefusion eval ate`"),
+        (f"Drift: relative pose of frames {d['gap_min']}-{d['gap_max']} apart against direct depth-to-depth registration "
+         f"({d['pairs']} pairs), median: EdgeFusion / the dataset's reference (KinectFusion-made)",
+         f"{d['ours_mm']:.1f} / {d['ref_mm']:.1f} mm, {d['ours_deg']:.2f} / {d['ref_deg']:.2f} deg", kitchen,
+         "bench/reference_consistency.py --far 300 on the same run"),
         (f"Real-camera CNN (DeepLabv3-MobileNetV2, 257x193, {dl['mmac'] / 1000:.2f} G multiply-adds): whole forward "
          f"pass, {dl['forward_isa']}, one thread", f"{dl['forward_ms']:.1f} ms", "any input (timing)",
          "bench_nn_model --model"),
@@ -254,7 +280,7 @@ def main():
         (f"Dense CRF over that run's map: 10 iterations over its {k['nodes']:,} confident surfels (of {k['surfels']:,}), "
          "one thread", f"{k['ms']:.0f} ms", kitchen, "bench_crf --checkpoint, median of 3"),
         ("`run --crf-final` at the default pool and budget: the CRF's surfels, the plan",
-         f"{k['plan_nodes']:,}; {k['plan_mb']:.1f} of {k['budget_mb']:.0f} MB", f"real: 7-Scenes kitchen (its model)",
+         f"{k['plan_nodes']:,}; {k['plan_mb']:.1f} of {k['budget_mb']:.0f} MB", "real: 7-Scenes kitchen (its model)",
          "edgefusion plan --crf-final"),
         (f"SLAM cost as the map grows: median per frame, last 1,000 of {g['frames']:,} frames / frames 1,000-1,999",
          f"{g['last']['sum']:.2f} / {g['second']['sum']:.2f} ms ({g['ratio']:.2f}x; "

@@ -9,13 +9,15 @@
 #   --reps R      repetitions of the end-to-end runs (default 3; medians are quoted)
 #   --no-readme   write docs/headline.md only
 #
-# What it does (about 17 minutes on 2 cores from a clean clone, the build included):
+# What it does (about 20 minutes on 2 cores from a clean clone, the build included):
 #   1. installs the test packages (scripts/install-deps.sh test: Open3D, XNNPACK) and builds the
 #      release preset's `edgefusion`, `bench_nn_conv`, `bench_nn_model`, `bench_slam_stages` and
 #      `bench_crf` (tests off) in build/headline
 #   2. bench/headline.py: the SLAM against Open3D's odometry (bench/slam_vs_open3d.sh, one thread
-#      each, ATE of both), the CNN's convolutions against XNNPACK and the whole forward pass
-#      (bench_nn_conv / bench_nn_model on the shipped model), the end-to-end rate and peak memory of
+#      each, ATE of both; bench/reference_consistency.py --far 300: the drift of ours and of the
+#      reference poses between frames far apart, against direct registration), the CNN's
+#      convolutions against XNNPACK and the whole forward pass (bench_nn_conv / bench_nn_model on
+#      the shipped model), the end-to-end rate and peak memory of
 #      `edgefusion run` with one and two threads (bench/pipeline_hz.py's runs), the dense CRF over the
 #      map of one of those runs (bench_crf --checkpoint) and the CRF's plan at the default pool, and
 #      the SLAM's cost as a 10,000-frame synthetic map grows (bench/slam_growth.sh); the machine, the
