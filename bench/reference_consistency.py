@@ -61,21 +61,26 @@ def orthonormal(R):
     return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
 
 
+def quat_to_R(w, x, y, z):
+    """Rotation matrix of a quaternion (normalised first)."""
+    n = np.sqrt(w * w + x * x + y * y + z * z)
+    w, x, y, z = w / n, x / n, y / n, z / n
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
 def load_tum(path):
     """4x4 camera-to-world poses, in file order (comment lines skipped)."""
-    poses = []
     with open(path) as f:
         lines = f.read().splitlines()
+    poses = []
     for line in lines:
         if line.startswith("#") or not line.strip():
             continue
         v = [float(a) for a in line.split()]
-        qx, qy, qz, qw = v[4:8]
-        R = np.array([[1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                      [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                      [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]])
         T = np.eye(4)
-        T[:3, :3] = orthonormal(R)  # the files' quaternions are unit only to their printed digits
+        T[:3, :3] = orthonormal(quat_to_R(v[7], v[4], v[5], v[6]))  # unit only to the printed digits
         T[:3, 3] = v[1:4]
         poses.append(T)
     return poses

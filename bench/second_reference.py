@@ -30,24 +30,12 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import reference_consistency as rc  # noqa: E402  (poses: quaternions, TUM files)
+from reference_consistency import orthonormal as nearest_rotation, quat_to_R  # noqa: E402
+
 BLOCK = 50        # frames per bootstrap block (1.7 s at 30 Hz: longer than the errors' correlation)
 RESAMPLES = 1000  # bootstrap resamples
-
-
-def quat_to_R(w, x, y, z):
-    n = np.sqrt(w * w + x * x + y * y + z * z)
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
-def nearest_rotation(M):
-    U, _, Vt = np.linalg.svd(M)
-    R = U @ Vt
-    if np.linalg.det(R) < 0:
-        R = U @ np.diag([1, 1, -1]) @ Vt
-    return R
 
 
 def load_pgt(path, sequence):
@@ -80,16 +68,9 @@ def load_dataset(data, n):
 
 
 def load_tum(path):
-    R, C = [], []
-    with open(path) as f:
-        lines = f.read().splitlines()
-    for line in lines:
-        if line.startswith("#") or not line.strip():
-            continue
-        v = [float(a) for a in line.split()]
-        R.append(quat_to_R(v[7], v[4], v[5], v[6]))
-        C.append(v[1:4])
-    return np.array(R), np.array(C)
+    """(rotations, centres) of a TUM trajectory, in file order."""
+    poses = np.array(rc.load_tum(path))
+    return poses[:, :3, :3], poses[:, :3, 3]
 
 
 def align(P, Q, with_scale=False):
