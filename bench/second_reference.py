@@ -13,7 +13,8 @@ where d_XY is the ATE RMSE of X against Y (each pair aligned on its own). Used h
 far the KinectFusion reference itself is from the truth, which bounds what an ATE measured against it
 can show. Errors of ours and of the reference that are correlated (both track the same depth images)
 make e_ref^2 smaller by the covariance: the estimate is then a lower bound. A 95% interval comes from
-a block bootstrap over the frames (blocks of 50 consecutive frames, each resample re-aligned).
+a block bootstrap over the frames (blocks of 50 consecutive frames, each resample re-aligned; rough,
+see BLOCK).
 
     /usr/bin/python3 bench/second_reference.py --pgt DIR EST.txt [EST2.txt ...]
         [--data DIR] [--sequence seq-01] [--write-tum OUT.txt]
@@ -34,7 +35,10 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import reference_consistency as rc  # noqa: E402  (poses: quaternions, TUM files)
 from reference_consistency import orthonormal as nearest_rotation, quat_to_R  # noqa: E402
 
-BLOCK = 50        # frames per bootstrap block (1.7 s at 30 Hz: longer than the errors' correlation)
+# Frames per bootstrap block (1.7 s at 30 Hz). Trajectory errors vary more slowly than that, and the
+# interval moves with the block length (25-200 frames: its lower end for the reference 0.7-1.6 cm on
+# the kitchen): read it as rough.
+BLOCK = 50
 RESAMPLES = 1000  # bootstrap resamples
 
 
@@ -46,12 +50,12 @@ def load_pgt(path, sequence):
     with open(path) as f:
         lines = f.read().splitlines()
     for line in lines:
-        f = line.split()
-        if len(f) < 8 or not f[0].startswith(sequence + "/frame-"):
+        fields = line.split()
+        if len(fields) < 8 or not fields[0].startswith(sequence + "/frame-"):
             continue
-        i = int(f[0].split("frame-")[1].split(".")[0])
-        Rw = quat_to_R(*map(float, f[1:5]))
-        t = np.array([float(v) for v in f[5:8]])
+        i = int(fields[0].split("frame-")[1].split(".")[0])
+        Rw = quat_to_R(*map(float, fields[1:5]))
+        t = np.array([float(v) for v in fields[5:8]])
         out[i] = (Rw.T, -Rw.T @ t)
     return out
 
