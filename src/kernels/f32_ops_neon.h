@@ -2,7 +2,8 @@
 // fusion_gates, track_rows, crf_rows, reduce_normal_equations, pyramid_row, normal_row,
 // gradient_fill_row): the float and int32 operations they share, 4 lanes in q registers, lane masks
 // as all-ones uint32 lanes. Separate FMUL / FADD (the kernel files turn contraction off); FDIV and
-// FSQRT are the IEEE operations; selects by BSL. Each family's type derives from it (or is it) and
+// FSQRT are the IEEE operations; selects by BSL; LD3 / ST3 de-interleave and interleave xyz triples
+// (load3 / store3, for normal_row and track_rows). Each family's type derives from it (or is it) and
 // adds its own loads. Internal linkage (an anonymous namespace): the rule for ISA files in
 // kernels/variants.h.
 #pragma once
@@ -21,6 +22,19 @@ struct F32Neon {
   static F zero() { return vdupq_n_f32(0.0f); }
   static F load(const float* p) { return vld1q_f32(p); }
   static void store(float* p, F x) { vst1q_f32(p, x); }
+  static void load3(const float* p, F& x, F& y, F& z) {
+    const float32x4x3_t v = vld3q_f32(p);
+    x = v.val[0];
+    y = v.val[1];
+    z = v.val[2];
+  }
+  static void store3(float* p, F x, F y, F z) {
+    float32x4x3_t v;
+    v.val[0] = x;
+    v.val[1] = y;
+    v.val[2] = z;
+    vst3q_f32(p, v);
+  }
   static void prefetch(const float* p) { __builtin_prefetch(p); }  // read hint
   static F add(F a, F b) { return vaddq_f32(a, b); }
   static F sub(F a, F b) { return vsubq_f32(a, b); }

@@ -1,8 +1,9 @@
 // Internal to the SSE4.1 variants of the kernels written over a vector-ops type (bilateral_row,
 // fusion_gates, track_rows, crf_rows, reduce_normal_equations, pyramid_row, normal_row,
 // gradient_fill_row): the float and int32 operations they share, 4 lanes in xmm registers, lane
-// masks as all-ones float lanes. Each family's type derives from it (or is it) and adds its own
-// loads. Internal linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
+// masks as all-ones float lanes, and the de-interleave of xyz triples (load3 / store3) that normal_row
+// and track_rows read vertices and normals with. Each family's type derives from it (or is it) and
+// adds its own loads. Internal linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
 #pragma once
 
 #include <smmintrin.h>
@@ -21,6 +22,27 @@ struct F32Sse41 {
   static F zero() { return _mm_setzero_ps(); }
   static F load(const float* p) { return _mm_loadu_ps(p); }
   static void store(float* p, F x) { _mm_storeu_ps(p, x); }
+  // Four xyz triples (12 floats) to and from registers of x, y and z. p: a = x0 y0 z0 x1,
+  // b = y1 z1 x2 y2, c = z2 x3 y3 z3. Two blends put each component's four values into one register
+  // in a known order (x0 x3 x2 x1, y1 y0 y3 y2, z2 z1 z0 z3), a shuffle sorts them; storing is the
+  // same shuffles (each its own inverse), then blends.
+  static void load3(const float* p, F& x, F& y, F& z) {
+    const F a = _mm_loadu_ps(p), b = _mm_loadu_ps(p + 4), c = _mm_loadu_ps(p + 8);
+    const F mx = _mm_blend_ps(_mm_blend_ps(a, b, 0x4), c, 0x2);
+    const F my = _mm_blend_ps(_mm_blend_ps(a, b, 0x9), c, 0x4);
+    const F mz = _mm_blend_ps(_mm_blend_ps(a, b, 0x2), c, 0x9);
+    x = _mm_shuffle_ps(mx, mx, _MM_SHUFFLE(1, 2, 3, 0));
+    y = _mm_shuffle_ps(my, my, _MM_SHUFFLE(2, 3, 0, 1));
+    z = _mm_shuffle_ps(mz, mz, _MM_SHUFFLE(3, 0, 1, 2));
+  }
+  static void store3(float* p, F x, F y, F z) {
+    const F mx = _mm_shuffle_ps(x, x, _MM_SHUFFLE(1, 2, 3, 0));
+    const F my = _mm_shuffle_ps(y, y, _MM_SHUFFLE(2, 3, 0, 1));
+    const F mz = _mm_shuffle_ps(z, z, _MM_SHUFFLE(3, 0, 1, 2));
+    _mm_storeu_ps(p, _mm_blend_ps(_mm_blend_ps(mx, my, 0x2), mz, 0x4));
+    _mm_storeu_ps(p + 4, _mm_blend_ps(_mm_blend_ps(my, mz, 0x2), mx, 0x4));
+    _mm_storeu_ps(p + 8, _mm_blend_ps(_mm_blend_ps(mz, mx, 0x2), my, 0x4));
+  }
   static void prefetch(const float* p) { _mm_prefetch(reinterpret_cast<const char*>(p), _MM_HINT_T0); }  // read hint
   static F add(F a, F b) { return _mm_add_ps(a, b); }
   static F sub(F a, F b) { return _mm_sub_ps(a, b); }

@@ -8,26 +8,8 @@
 
 namespace ef::kernels {
 
-namespace {
-struct Neon : F32Neon {
-  static void load3(const float* p, F& x, F& y, F& z) {
-    const float32x4x3_t v = vld3q_f32(p);
-    x = v.val[0];
-    y = v.val[1];
-    z = v.val[2];
-  }
-  static void store3(float* p, F x, F y, F z) {
-    float32x4x3_t v;
-    v.val[0] = x;
-    v.val[1] = y;
-    v.val[2] = z;
-    vst3q_f32(p, v);
-  }
-};
-}  // namespace
-
 void normal_row__neon(const NormalRow& r, int x_begin, int x_end, float* normal) {
-  normal_row_simd<Neon>(r, x_begin, x_end, normal);
+  normal_row_simd<F32Neon>(r, x_begin, x_end, normal);
 }
 
 }  // namespace ef::kernels

@@ -1,6 +1,6 @@
 // track_rows for AVX2: 8 pixels per step in ymm registers, lane masks as all-ones float lanes. The
 // reference maps are read with gathers (VGATHERDPD of float pairs, VGATHERDPS of single floats); xyz
-// triples are de-interleaved with two blends and one VPERMPS per component. Separate multiply and add
+// triples are de-interleaved with two blends and one VPERMPS per component (F32Avx2::load3). Separate multiply and add
 // (contraction off; the file is built with -mfma).
 #include <immintrin.h>
 
@@ -11,21 +11,6 @@ namespace ef::kernels {
 
 namespace {
 struct Avx2 : F32Avx2 {
-  template <int comp>
-  static F component(F a, F b, F c) {
-#define EF_P(k) tr_perm(kWidth, comp, k)
-    const I idx = _mm256_setr_epi32(EF_P(0), EF_P(1), EF_P(2), EF_P(3), EF_P(4), EF_P(5), EF_P(6), EF_P(7));
-#undef EF_P
-    constexpr int from_b = static_cast<int>(tr_mask(kWidth, comp, 1)),
-                  from_c = static_cast<int>(tr_mask(kWidth, comp, 2));
-    return _mm256_permutevar8x32_ps(_mm256_blend_ps(_mm256_blend_ps(a, b, from_b), c, from_c), idx);
-  }
-  static void load3(const float* p, F& x, F& y, F& z) {
-    const F a = load(p), b = load(p + 8), c = load(p + 16);
-    x = component<0>(a, b, c);
-    y = component<1>(a, b, c);
-    z = component<2>(a, b, c);
-  }
   static F gather(const float* base, I idx) { return _mm256_i32gather_ps(base, idx, 4); }
   // Two VGATHERDPD of 4 float pairs: [a0 b0 a1 b1 | a2 b2 a3 b3] and [a4 b4 .. | ..]; a SHUFPS picks
   // the even (odd) floats per 128-bit half, a VPERMPD puts the halves in order.

@@ -2,7 +2,7 @@
 // (AVX-512 F/DQ; named __avx512vnni after the ISA level our detection reports, see kernels/variants.h).
 // The reference maps are read with gathers: VGATHERDPD of float pairs (the two bilinear taps of an
 // image row, x and y of a vertex or normal) and VGATHERDPS for single floats; xyz triples of the
-// current frame are de-interleaved with two masked blends and one VPERMPS per component.
+// current frame are de-interleaved with two VPERMT2PS per component (F32Avx512::load3).
 #include <immintrin.h>
 
 #include "kernels/f32_ops_avx512.h"
@@ -12,21 +12,6 @@ namespace ef::kernels {
 
 namespace {
 struct Avx512 : F32Avx512 {
-  template <int comp>
-  static F component(F a, F b, F c) {
-#define EF_P(k) tr_perm(kWidth, comp, k)
-    const I idx = _mm512_setr_epi32(EF_P(0), EF_P(1), EF_P(2), EF_P(3), EF_P(4), EF_P(5), EF_P(6), EF_P(7), EF_P(8),
-                                    EF_P(9), EF_P(10), EF_P(11), EF_P(12), EF_P(13), EF_P(14), EF_P(15));
-#undef EF_P
-    constexpr M from_b = static_cast<M>(tr_mask(kWidth, comp, 1)), from_c = static_cast<M>(tr_mask(kWidth, comp, 2));
-    return _mm512_maskz_permutexvar_ps(kAll, idx, _mm512_mask_blend_ps(from_c, _mm512_mask_blend_ps(from_b, a, b), c));
-  }
-  static void load3(const float* p, F& x, F& y, F& z) {
-    const F a = load(p), b = load(p + 16), c = load(p + 32);
-    x = component<0>(a, b, c);
-    y = component<1>(a, b, c);
-    z = component<2>(a, b, c);
-  }
   static F gather(const float* base, I idx) { return _mm512_mask_i32gather_ps(zero(), kAll, idx, base, 4); }
   // Two VGATHERDPD of 8 float pairs, then the even and the odd floats of the 16 pairs.
   static void gather2(const float* base, I idx, F& lo, F& hi) {

@@ -12,12 +12,6 @@ namespace ef::kernels {
 
 namespace {
 struct Neon : F32Neon {
-  static void load3(const float* p, F& x, F& y, F& z) {
-    const float32x4x3_t v = vld3q_f32(p);
-    x = v.val[0];
-    y = v.val[1];
-    z = v.val[2];
-  }
   // One 64-bit load per lane (LD1 of two floats), then UZP1 / UZP2 for the even and the odd floats.
   static void gather2(const float* base, I idx, F& lo, F& hi) {
     const F t0 = vcombine_f32(vld1_f32(base + vgetq_lane_s32(idx, 0)), vld1_f32(base + vgetq_lane_s32(idx, 1)));

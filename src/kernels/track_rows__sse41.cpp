@@ -1,7 +1,7 @@
 // track_rows for SSE4.1 (x86-64 baseline): 4 pixels per step in xmm registers, lane masks as
 // all-ones float lanes, ROUNDPS for the floor, PMULLD for pixel offsets. SSE has no gather: the
 // reference maps are read with one 64-bit (float pair) or 32-bit load per lane. xyz triples are
-// de-interleaved with two blends and one shuffle per component.
+// de-interleaved with two blends and one shuffle per component (F32Sse41::load3).
 #include <smmintrin.h>
 
 #include "kernels/f32_ops_sse41.h"
@@ -11,21 +11,6 @@ namespace ef::kernels {
 
 namespace {
 struct Sse41 : F32Sse41 {
-  template <int comp>
-  static F component(F a, F b, F c) {
-    constexpr int from_b = static_cast<int>(tr_mask(kWidth, comp, 1)),
-                  from_c = static_cast<int>(tr_mask(kWidth, comp, 2));
-    constexpr int perm = _MM_SHUFFLE(tr_perm(kWidth, comp, 3), tr_perm(kWidth, comp, 2), tr_perm(kWidth, comp, 1),
-                                     tr_perm(kWidth, comp, 0));
-    const F t = _mm_blend_ps(_mm_blend_ps(a, b, from_b), c, from_c);
-    return _mm_shuffle_ps(t, t, perm);
-  }
-  static void load3(const float* p, F& x, F& y, F& z) {
-    const F a = load(p), b = load(p + 4), c = load(p + 8);
-    x = component<0>(a, b, c);
-    y = component<1>(a, b, c);
-    z = component<2>(a, b, c);
-  }
   // One 64-bit load per lane (MOVLPS / MOVHPS), then the even and the odd floats.
   static void gather2(const float* base, I idx, F& lo, F& hi) {
     const auto at = [base](int i) { return reinterpret_cast<const __m64*>(base + i); };

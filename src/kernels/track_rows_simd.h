@@ -5,7 +5,8 @@
 // the tail of a run goes to track_rows_ref, compiled for the baseline.
 //
 // A vector-ops type V provides (F: kWidth floats, I: kWidth int32, M: a lane mask):
-//   set1(float) zero() load(p) store(p, F)  load3(p, x, y, z): kWidth xyz triples (3 kWidth floats)
+//   set1(float) zero() load(p) store(p, F)
+//   load3(p, x, y, z): kWidth xyz triples (3 kWidth floats; the f32_ops types' de-interleave)
 //   add sub mul div neg abs floor  cvtt(F) -> I (truncation)  cvt(I) -> F
 //   iset1(int) iadd(I, I) imul(I, I)
 //   lt le gt ge (ordered: false on NaN, as C++'s < <= > >=)  ne (unordered: true on NaN, as !=)
@@ -26,25 +27,6 @@
 
 namespace ef::kernels {
 namespace {
-
-// De-interleaving kWidth xyz triples held in three registers a, b, c (flat floats 0 .. 3 kWidth - 1):
-// lane k of component comp is flat element 3 k + comp. Because 3 is coprime with kWidth, the lanes of
-// one component land on distinct positions (3 k + comp) mod kWidth, so one blend of a, b, c per
-// position followed by one permutation gives the component. tr_src: which register (0 a, 1 b, 2 c)
-// supplies position pos; tr_perm: the position that lane k reads after the blend.
-constexpr int tr_src(int width, int comp, int pos) {
-  for (int k = 0; k < width; ++k)
-    if ((3 * k + comp) % width == pos) return (3 * k + comp) / width;
-  return 0;
-}
-constexpr int tr_perm(int width, int comp, int k) { return (3 * k + comp) % width; }
-// Bit pos set when register src supplies position pos (for masked blends).
-constexpr unsigned tr_mask(int width, int comp, int src) {
-  unsigned m = 0;
-  for (int pos = 0; pos < width; ++pos)
-    if (tr_src(width, comp, pos) == src) m |= 1u << pos;
-  return m;
-}
 
 template <class V>
 struct TrVec3 {
