@@ -4,8 +4,8 @@
 // share, 8 lanes in ymm registers, lane masks as all-ones float lanes (separate multiply and add:
 // contraction off, although the files are built with -mfma), and the de-interleave of xyz triples
 // (load3 / store3) that normal_row and track_rows read vertices and normals with. Each family's type
-// derives from it (or is it) and adds its own loads. Internal linkage (an anonymous namespace): the rule for ISA files
-// in kernels/variants.h.
+// derives from it (or is it) and adds its own loads. Internal linkage (an anonymous namespace): the
+// rule for ISA files in kernels/variants.h.
 #pragma once
 
 #include <immintrin.h>

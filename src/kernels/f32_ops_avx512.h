@@ -2,8 +2,8 @@
 // fusion_gates, track_rows, crf_rows, pyramid_row, normal_row, gradient_fill_row): the float and
 // int32 operations they share, 16 lanes in zmm registers, masks in k registers (AVX-512 F), and the
 // de-interleave of xyz triples (load3 / store3) that normal_row and track_rows read vertices and
-// normals with. Each family's type derives from it (or is it) and adds its own loads. Internal linkage (an anonymous
-// namespace): the rule for ISA files in kernels/variants.h.
+// normals with. Each family's type derives from it (or is it) and adds its own loads. Internal
+// linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
 #pragma once
 
 #include <immintrin.h>

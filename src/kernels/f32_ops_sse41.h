@@ -1,9 +1,10 @@
 // Internal to the SSE4.1 variants of the kernels written over a vector-ops type (bilateral_row,
 // fusion_gates, track_rows, crf_rows, reduce_normal_equations, pyramid_row, normal_row,
 // gradient_fill_row): the float and int32 operations they share, 4 lanes in xmm registers, lane
-// masks as all-ones float lanes, and the de-interleave of xyz triples (load3 / store3) that normal_row
-// and track_rows read vertices and normals with. Each family's type derives from it (or is it) and
-// adds its own loads. Internal linkage (an anonymous namespace): the rule for ISA files in kernels/variants.h.
+// masks as all-ones float lanes, and the de-interleave of xyz triples (load3 / store3) that
+// normal_row and track_rows read vertices and normals with. Each family's type derives from it (or
+// is it) and adds its own loads. Internal linkage (an anonymous namespace): the rule for ISA files in
+// kernels/variants.h.
 #pragma once
 
 #include <smmintrin.h>
