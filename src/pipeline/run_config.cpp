@@ -216,6 +216,7 @@ std::vector<ConfigKey> make_keys() {
   bind_table(k, "mapping", "", "", slam::PredictionOptions::table(), [](auto& c) -> auto& { return c.mapping.prediction; });
   bind_table(k, "mapping", "", "", slam::FusionOptions::table(), [](auto& c) -> auto& { return c.mapping.fusion; });
   bind_table(k, "mapping", "", "", slam::KeyframeFernOptions::table(), [](auto& c) -> auto& { return c.mapping.ferns; });
+  bind_table(k, "mapping", "", "", slam::DeformationGraphOptions::table(), [](auto& c) -> auto& { return c.mapping.graph; });
   bind_table(k, "labels", "", "", LabelOptions::table(), [](auto& c) -> auto& { return c.labels; });
   bind_table(k, "labels", "", "", semantic::LabelFusionOptions::table(), [](auto& c) -> auto& { return c.label_fusion; });
   bind_table(k, "crf", "", "", CrfOptions::table(), [](auto& c) -> auto& { return c.crf; });

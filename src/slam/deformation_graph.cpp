@@ -16,17 +16,30 @@ constexpr int kMaxNeighbours = 8;
 constexpr int kUnknownsPerNode = 12;  // A (row-major 3x3), t
 }  // namespace
 
-Status DeformationGraphOptions::validate() const {
-  auto bad = [](const std::string& what) { return error(ErrorCode::kInvalidArgument, "deformation graph: " + what); };
-  if (max_nodes < 4 || max_nodes > 16384) return bad("max_nodes " + std::to_string(max_nodes) + " is outside 4..16384");
-  if (surfels_per_node < 1) return bad("surfels_per_node must be >= 1");
-  if (neighbours < 1 || neighbours > kMaxNeighbours)
-    return bad("neighbours " + std::to_string(neighbours) + " is outside 1..8");
-  if (max_constraints < 1 || max_constraints > 1000000) return bad("max_constraints is outside 1..1000000");
-  if (iterations < 1 || iterations > 20) return bad("iterations is outside 1..20");
-  if (!(weight_rotation > 0 && weight_regularisation > 0 && weight_constraint > 0)) return bad("weights must be > 0");
-  return Status::success();
+const opt::Table<DeformationGraphOptions>& DeformationGraphOptions::table() {
+  static const opt::Table<DeformationGraphOptions> t = {
+      {"deformation_max_nodes", "", "", &DeformationGraphOptions::max_nodes, "nodes", opt::between(4, 16384),
+       "loop closure: the deformation graph's nodes at most (ElasticFusion 1024; a pool needs one per "
+       "deformation_surfels_per_node), allocated at start-up"},
+      {"deformation_surfels_per_node", "", "", &DeformationGraphOptions::surfels_per_node, "surfels",
+       opt::at_least(1), "loop closure: one graph node per this many surfels (ElasticFusion about 5000)"},
+      {"deformation_neighbours", "", "", &DeformationGraphOptions::neighbours, "nodes", opt::between(1, kMaxNeighbours),
+       "loop closure: graph edges per node and nodes that move each surfel (ElasticFusion 4)"},
+      {"deformation_max_constraints", "", "", &DeformationGraphOptions::max_constraints, "constraints",
+       opt::between(1, 1000000), "loop closure: the most constraints one closure adds, allocated at start-up"},
+      {"deformation_iterations", "", "", &DeformationGraphOptions::iterations, "steps", opt::between(1, 20),
+       "loop closure: Gauss-Newton steps of a closure's optimisation (ElasticFusion up to 3)"},
+      {"deformation_weight_rotation", "", "", &DeformationGraphOptions::weight_rotation, "", opt::above(0),
+       "loop closure: weight of the nodes' rotation term (ElasticFusion 1)"},
+      {"deformation_weight_regularisation", "", "", &DeformationGraphOptions::weight_regularisation, "",
+       opt::above(0), "loop closure: weight of the smoothness between neighbouring nodes (ElasticFusion 10)"},
+      {"deformation_weight_constraint", "", "", &DeformationGraphOptions::weight_constraint, "", opt::above(0),
+       "loop closure: weight of the closure's constraints (ElasticFusion 100)"},
+  };
+  return t;
 }
+
+Status DeformationGraphOptions::validate() const { return opt::check_table(*this, table(), "deformation graph"); }
 
 DeformationGraphOptions DeformationGraphOptions::for_pool(int64_t capacity) const {
   DeformationGraphOptions o = *this;

@@ -69,6 +69,8 @@ struct DeformationGraphOptions {
   int32_t iterations = 3;           // Gauss-Newton steps (ElasticFusion up to 3), 1..20
   double weight_rotation = 1.0, weight_regularisation = 10.0, weight_constraint = 100.0;  // > 0
 
+  // The keys `run` offers (section mapping, each named deformation_*).
+  static const opt::Table<DeformationGraphOptions>& table();
   Status validate() const;
   // These options with max_nodes cut to what a pool of `capacity` surfels can ever need (one node
   // per surfels_per_node, at least neighbours + 2): what a SLAM allocates (1,000,000 surfels: 200

@@ -48,6 +48,8 @@ const opt::Table<SurfelSlamOptions>& SurfelSlamOptions::table() {
        "a closure whose constraints stay further than this (RMS) from met after the optimisation is rejected"},
       {"relocalisation_candidates", "", "", &SurfelSlamOptions::relocalisation_candidates, "keyframes",
        opt::between(1, 16), "keyframes tried per lost frame, the most similar first"},
+      {"loop_sample_step", "", "", &SurfelSlamOptions::loop_sample_step, "pixels", opt::between(1, 256),
+       "a closure constrains the current view's surface at every this-many pixels of the working image"},
   };
   return t;
 }

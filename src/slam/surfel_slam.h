@@ -133,7 +133,7 @@ struct SurfelSlamOptions {
 
   // The keys `run` offers (section mapping): constant_velocity_guess, associate_at_tracked_pose,
   // relocalisation, lost_inlier_drop, loop_closure, associate_active_only, loop_check_every,
-  // loop_min_correction_m / _deg, loop_max_residual_m, relocalisation_candidates.
+  // loop_min_correction_m / _deg, loop_max_residual_m, relocalisation_candidates, loop_sample_step.
   // Those of the parts are in their own tables (PreprocessOptions::table(), ...).
   static const opt::Table<SurfelSlamOptions>& table();
   Status validate() const;

@@ -169,6 +169,19 @@ const opt::Table<TrackerOptions>& TrackerOptions::table() {
       {"lost_max_condition", "lost_max_condition", "", &TrackerOptions::lost_max_condition, "", opt::at_least(1),
        "tracking: a frame is lost when its system's condition number (largest / smallest eigenvalue) exceeds "
        "this: a direction the data does not see"},
+      {"lost_min_inlier_fraction", "", "", &TrackerOptions::lost_min_inlier_fraction, "fraction", opt::between(0, 1),
+       "tracking: a frame is lost when fewer of its valid pixels than this are ICP inliers at the final pose (0.79 "
+       "on 7-Scenes at the right pose, 0.15-0.20 on noisy synthetic frames, 0.02 against another room)"},
+      {"lost_min_inliers", "", "", &TrackerOptions::lost_min_inliers, "pixels", opt::at_least(0),
+       "tracking: ... or fewer inliers than this at all (level 0)"},
+      {"lost_max_icp_rms_m", "", "", &TrackerOptions::lost_max_icp_rms_m, "metres", opt::above(0),
+       "tracking: a frame is lost when the RMS of its ICP inlier residuals exceeds this"},
+      {"lost_max_rgb_rms_grey", "", "", &TrackerOptions::lost_max_rgb_rms_grey, "grey levels", opt::above(0),
+       "tracking: the same for the photometric residuals when only colour tracks (icp_weight 0)"},
+      {"lost_max_correction_m", "", "", &TrackerOptions::lost_max_correction_m, "metres", opt::above(0),
+       "tracking: a frame is lost (diverged) when tracking moves the camera further than this from its guess"},
+      {"lost_max_correction_deg", "", "", &TrackerOptions::lost_max_correction_deg, "degrees", opt::above(0),
+       "tracking: ... or turns it more than this"},
   };
   return t;
 }

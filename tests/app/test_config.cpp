@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "app/cli_test_util.h"
@@ -100,6 +101,56 @@ TEST(ConfigYaml, SectionsSetTheOptions) {
   EXPECT_TRUE(c->crf.final);
   EXPECT_EQ(c->dense_crf.iterations, 7);
   EXPECT_EQ(c->memory.budget_mb, 512);
+}
+
+// Issue 30: every threshold of the lost verdict, relocalisation and loop closure is a key (the
+// deformation graph's sizes and weights too), read into the options the SLAM is built from, and a
+// value out of its range is refused naming the key.
+TEST(ConfigYaml, LostAndLoopClosureThresholdsAreKeys) {
+  auto c = read_text(
+      "mapping:\n"
+      "  lost_min_inlier_fraction: 0.05\n  lost_min_inliers: 500\n  lost_max_icp_rms_m: 0.03\n"
+      "  lost_max_rgb_rms_grey: 30\n  lost_max_correction_m: 0.2\n  lost_max_correction_deg: 15\n"
+      "  loop_sample_step: 8\n  deformation_max_nodes: 512\n  deformation_surfels_per_node: 2000\n"
+      "  deformation_neighbours: 6\n  deformation_max_constraints: 1000\n  deformation_iterations: 5\n"
+      "  deformation_weight_rotation: 2\n  deformation_weight_regularisation: 20\n"
+      "  deformation_weight_constraint: 50\n");
+  ASSERT_TRUE(c.ok()) << to_string(c.error());
+  const auto& t = c->mapping.tracker;
+  EXPECT_EQ(t.lost_min_inlier_fraction, 0.05);
+  EXPECT_EQ(t.lost_min_inliers, 500);
+  EXPECT_EQ(t.lost_max_icp_rms_m, 0.03);
+  EXPECT_EQ(t.lost_max_rgb_rms_grey, 30.0);
+  EXPECT_EQ(t.lost_max_correction_m, 0.2);
+  EXPECT_EQ(t.lost_max_correction_deg, 15.0);
+  EXPECT_EQ(c->mapping.loop_sample_step, 8);
+  const auto& g = c->mapping.graph;
+  EXPECT_EQ(g.max_nodes, 512);
+  EXPECT_EQ(g.surfels_per_node, 2000);
+  EXPECT_EQ(g.neighbours, 6);
+  EXPECT_EQ(g.max_constraints, 1000);
+  EXPECT_EQ(g.iterations, 5);
+  EXPECT_EQ(g.weight_rotation, 2.0);
+  EXPECT_EQ(g.weight_regularisation, 20.0);
+  EXPECT_EQ(g.weight_constraint, 50.0);
+  EXPECT_TRUE(c->mapping.validate().ok());
+
+  for (const auto& [text, key] : std::vector<std::pair<std::string, std::string>>{
+           {"mapping: {lost_min_inlier_fraction: 1.5}\n", "mapping.lost_min_inlier_fraction"},
+           {"mapping: {lost_max_icp_rms_m: 0}\n", "mapping.lost_max_icp_rms_m"},
+           {"mapping: {deformation_neighbours: 9}\n", "mapping.deformation_neighbours"},
+           {"mapping: {deformation_weight_constraint: -1}\n", "mapping.deformation_weight_constraint"},
+           {"mapping: {loop_sample_step: 0}\n", "mapping.loop_sample_step"}}) {
+    auto bad = read_text(text);
+    ASSERT_FALSE(bad.ok()) << text;
+    EXPECT_NE(to_string(bad.error()).find(key), std::string::npos) << text << ": " << to_string(bad.error());
+  }
+  // The struct's own check holds the same ranges (the table's rows are its only copy).
+  ef::slam::DeformationGraphOptions g2;
+  g2.neighbours = 9;
+  EXPECT_FALSE(g2.validate().ok());
+  g2.neighbours = 8;
+  EXPECT_TRUE(g2.validate().ok());
 }
 
 TEST(ConfigYaml, FlatKeysStillWork) {
