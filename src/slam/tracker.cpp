@@ -206,12 +206,6 @@ Status TrackerOptions::validate() const {
   if (!finite_positive(rgb_huber_k)) return bad("rgb_huber_k");
   if (!finite_positive(rgb_max_depth_diff_m)) return bad("rgb_max_depth_diff_m");
   if (!finite_positive(rgb_max_depth_m)) return bad("rgb_max_depth_m");
-  if (!(lost_min_inlier_fraction >= 0 && lost_min_inlier_fraction <= 1)) return bad("lost_min_inlier_fraction");
-  if (lost_min_inliers < 0) return bad("lost_min_inliers");
-  if (!finite_positive(lost_max_icp_rms_m)) return bad("lost_max_icp_rms_m");
-  if (!finite_positive(lost_max_rgb_rms_grey)) return bad("lost_max_rgb_rms_grey");
-  if (!finite_positive(lost_max_correction_m)) return bad("lost_max_correction_m");
-  if (!finite_positive(lost_max_correction_deg)) return bad("lost_max_correction_deg");
   return Status::success();
 }
 
